@@ -1,0 +1,48 @@
+/* boards.c - the reference board of each variant (PROTOCOL.md §8). Model numbers, ranges
+ * and current limits are this project's choices; the defaults of baud and return delay
+ * are the spec's. */
+#include <string.h>
+
+#include "board.h"
+
+const struct board board_base = {
+    .name = "base", .variant = VARIANT_BASE, .model_number = 0x5201,
+    .max_angle_ddeg = 0, .current_limit = 50, .default_baud = 115200,
+    .return_delay = 8, .photo_switches = 0,
+};
+
+const struct board board_foot = {
+    .name = "foot", .variant = VARIANT_FOOT, .model_number = 0x5202,
+    .max_angle_ddeg = 3600, .current_limit = 40, .default_baud = 9600,
+    .return_delay = 16, .photo_switches = 0,
+};
+
+const struct board board_arm = {
+    .name = "arm", .variant = VARIANT_ARM, .model_number = 0x5203,
+    .max_angle_ddeg = 3600, .current_limit = 30, .default_baud = 9600,
+    .return_delay = 16, .photo_switches = 1,
+};
+
+const struct board board_wrist = {
+    .name = "wrist", .variant = VARIANT_WRIST, .model_number = 0x5204,
+    .max_angle_ddeg = 2700, .current_limit = 20, .default_baud = 9600,
+    .return_delay = 16, .photo_switches = 1,
+};
+
+const struct board board_finger = {
+    .name = "finger", .variant = VARIANT_FINGER, .model_number = 0x5205,
+    .max_angle_ddeg = 1800, .current_limit = 10, .default_baud = 9600,
+    .return_delay = 16, .photo_switches = 1,
+};
+
+static const struct board *const boards_all[] = {
+    &board_base, &board_foot, &board_arm, &board_wrist, &board_finger,
+};
+
+const struct board *board_find(const char *name)
+{
+    for (uint32_t i = 0; i < sizeof boards_all / sizeof boards_all[0]; i++)
+        if (strcmp(boards_all[i]->name, name) == 0)
+            return boards_all[i];
+    return 0;
+}

@@ -1,0 +1,10 @@
+# Fail if docs/registers.md is not exactly what regdoc generates from the table.
+execute_process(COMMAND ${REGDOC} OUTPUT_VARIABLE generated RESULT_VARIABLE rc)
+if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "regdoc failed")
+endif()
+file(READ ${DOC} checked_in)
+if(NOT generated STREQUAL checked_in)
+    message(FATAL_ERROR "${DOC} is out of date with src/regs.c: run `make docs`")
+endif()
+message(STATUS "register reference matches the table")

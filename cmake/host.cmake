@@ -1,0 +1,18 @@
+# Host build: the core with register names compiled in, the host HAL, tests and tools.
+option(SERVO_SANITIZE "Build with AddressSanitizer and UndefinedBehaviorSanitizer" ON)
+if(SERVO_SANITIZE)
+    add_compile_options(-fsanitize=address,undefined -fno-sanitize-recover=all
+                        -fno-omit-frame-pointer)
+    add_link_options(-fsanitize=address,undefined)
+endif()
+
+target_compile_definitions(servo_core PUBLIC REGS_WITH_TEXT=1)
+
+add_library(hal_host STATIC hal/host/hal_host.c)
+target_include_directories(hal_host PUBLIC hal hal/host)
+target_compile_options(hal_host PRIVATE ${SERVO_WARNINGS})
+
+add_subdirectory(tools)
+
+enable_testing()
+add_subdirectory(tests)

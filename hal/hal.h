@@ -1,0 +1,39 @@
+/* hal.h - the one interface between the portable servo core and an MCU (or the host).
+ *
+ * Every function takes the port's context pointer so that several servos can run in one
+ * host process; a single-chip port keeps one static instance and ignores the pointer.
+ * Each function says in which context the core calls it. A port implements all of them
+ * (see hal/stm32f1/ for the MCU, hal/host/ for the host simulation).
+ *
+ * Interrupt contract: the port's UART receive interrupt calls servo_rx_isr() (servo.h)
+ * once per received byte. Nothing else in the core runs in interrupt context.
+ */
+#ifndef HAL_H
+#define HAL_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+struct hal; /* defined by each port */
+
+/* Monotonic microsecond clock, wrapping at 2^32. Any context. */
+uint32_t hal_clock_us(struct hal *h);
+
+/* Set the UART baud rate. Main loop only, never while a transmission is in progress. */
+void hal_uart_set_baud(struct hal *h, uint32_t baud);
+
+/* Start sending len bytes without blocking: assert the RS485 driver enable, then send.
+ * The buffer stays valid and untouched until hal_uart_tx_busy() returns false.
+ * Main loop only; never called while hal_uart_tx_busy() is true. */
+void hal_uart_send(struct hal *h, const uint8_t *buf, uint16_t len);
+
+/* True until the last stop bit of the last hal_uart_send() has left the shift register
+ * (transmission complete) and the driver enable has been released. Main loop. */
+bool hal_uart_tx_busy(struct hal *h);
+
+/* Mask the interrupts that call into the core; returns the previous state for
+ * hal_irq_restore(). Keep the masked section short. Main loop. */
+uint32_t hal_irq_save(struct hal *h);
+void hal_irq_restore(struct hal *h, uint32_t state);
+
+#endif

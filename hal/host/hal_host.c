@@ -1,0 +1,68 @@
+/* hal_host.c - HAL on the host: virtual clock and a logging UART. */
+#include <string.h>
+
+#include "hal_host.h"
+
+void hal_host_init(struct hal *h)
+{
+    memset(h, 0, sizeof *h);
+    h->baud = 9600;
+}
+
+uint32_t hal_host_byte_start(uint32_t t0, uint32_t baud, uint32_t i)
+{
+    return t0 + (uint32_t)((uint64_t)i * 10000000u / baud);
+}
+
+uint32_t hal_host_byte_end(uint32_t t0, uint32_t baud, uint32_t i)
+{
+    return t0 + (uint32_t)(((uint64_t)(i + 1u) * 10000000u + baud - 1u) / baud);
+}
+
+const struct hal_tx_byte *hal_host_tx(const struct hal *h, uint32_t i)
+{
+    return &h->log[i % HAL_HOST_TX_LOG];
+}
+
+uint32_t hal_clock_us(struct hal *h)
+{
+    return h->now_us;
+}
+
+void hal_uart_set_baud(struct hal *h, uint32_t baud)
+{
+    h->baud = baud;
+    h->baud_sets++;
+}
+
+void hal_uart_send(struct hal *h, const uint8_t *buf, uint16_t len)
+{
+    uint32_t t0 = h->now_us;
+    for (uint16_t i = 0; i < len; i++) {
+        struct hal_tx_byte *b = &h->log[h->log_len++ % HAL_HOST_TX_LOG];
+        b->byte = buf[i];
+        b->baud = h->baud;
+        b->start_us = hal_host_byte_start(t0, h->baud, i);
+        b->end_us = hal_host_byte_end(t0, h->baud, i);
+    }
+    h->tx_end_us = hal_host_byte_end(t0, h->baud, (uint32_t)len - 1u);
+    h->tx_active = len > 0;
+    h->sends++;
+}
+
+bool hal_uart_tx_busy(struct hal *h)
+{
+    if (h->tx_active && (int32_t)(h->now_us - h->tx_end_us) >= 0)
+        h->tx_active = false;
+    return h->tx_active;
+}
+
+uint32_t hal_irq_save(struct hal *h)
+{
+    return (uint32_t)h->irq_depth++;
+}
+
+void hal_irq_restore(struct hal *h, uint32_t state)
+{
+    h->irq_depth = (int32_t)state;
+}

@@ -1,0 +1,42 @@
+/* hal_host.h - the host port of the HAL: a virtual clock that tests advance by hand and
+ * a UART that logs every byte the servo sends with the time its start bit begins. */
+#ifndef HAL_HOST_H
+#define HAL_HOST_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "hal.h"
+
+#define HAL_HOST_TX_LOG 8192u
+
+struct hal_tx_byte {
+    uint32_t start_us; /* start bit begins */
+    uint32_t end_us;   /* stop bit ends */
+    uint32_t baud;
+    uint8_t byte;
+};
+
+struct hal {
+    uint32_t now_us;
+    uint32_t baud;
+    uint32_t tx_end_us;
+    bool tx_active;
+    int32_t irq_depth;  /* > 0 while the core has interrupts masked */
+    uint32_t sends;     /* hal_uart_send() calls */
+    uint32_t baud_sets; /* hal_uart_set_baud() calls */
+    uint32_t log_len;   /* bytes logged; the log keeps the last HAL_HOST_TX_LOG */
+    struct hal_tx_byte log[HAL_HOST_TX_LOG];
+};
+
+/* Clock at 0, UART idle at 9600, empty log. */
+void hal_host_init(struct hal *h);
+
+/* The i-th byte ever sent (i < log_len, and not older than HAL_HOST_TX_LOG bytes). */
+const struct hal_tx_byte *hal_host_tx(const struct hal *h, uint32_t i);
+
+/* Start and end of byte i of a transmission that began at t0 (10 bits per byte). */
+uint32_t hal_host_byte_start(uint32_t t0, uint32_t baud, uint32_t i);
+uint32_t hal_host_byte_end(uint32_t t0, uint32_t baud, uint32_t i);
+
+#endif

@@ -1,0 +1,122 @@
+/* vbus.c - virtual bus: delivers each byte to every other device at its end time. */
+#include <string.h>
+
+#include "vbus.h"
+
+void vbus_init(struct vbus *b)
+{
+    memset(b, 0, sizeof *b);
+    b->step_us = 1;
+    b->host_baud = 9600;
+    b->wire_end_src = VBUS_HOST;
+}
+
+uint8_t vbus_add(struct vbus *b, const struct board *bd, uint8_t id)
+{
+    uint8_t i = b->nodes++;
+    struct vbus_node *n = &b->node[i];
+    hal_host_init(&n->hal);
+    n->hal.now_us = b->now_us;
+    servo_init(&n->servo, bd, &n->hal);
+    if (id) {
+        n->servo.regs.mem[REG_ID] = id;
+        link_latch(&n->servo);
+    }
+    return i;
+}
+
+const struct vbus_byte *vbus_wire(const struct vbus *b, uint32_t i)
+{
+    return &b->wire[i & (VBUS_WIRE_MAX - 1u)];
+}
+
+static void wire_put(struct vbus *b, int8_t src, uint8_t byte, uint32_t start, uint32_t end,
+                     uint32_t baud)
+{
+    if (b->wire_len && src != b->wire_end_src && (int32_t)(start - b->wire_end_us) < 0)
+        b->collisions++;
+    struct vbus_byte *w = &b->wire[b->wire_len++ & (VBUS_WIRE_MAX - 1u)];
+    w->start_us = start;
+    w->end_us = end;
+    w->baud = baud;
+    w->byte = byte;
+    w->src = src;
+    if (b->wire_len == 1u || (int32_t)(end - b->wire_end_us) > 0) {
+        b->wire_end_us = end;
+        b->wire_end_src = src;
+    }
+}
+
+/* Copy what the servos have started sending onto the wire. */
+static void collect(struct vbus *b)
+{
+    for (uint8_t i = 0; i < b->nodes; i++) {
+        struct vbus_node *n = &b->node[i];
+        for (; n->log_seen < n->hal.log_len; n->log_seen++) {
+            const struct hal_tx_byte *t = hal_host_tx(&n->hal, n->log_seen);
+            wire_put(b, (int8_t)i, t->byte, t->start_us, t->end_us, t->baud);
+        }
+    }
+}
+
+/* Hand every byte that has ended by t to the devices that hear it. */
+static void deliver(struct vbus *b, uint32_t t)
+{
+    while (b->delivered < b->wire_len) {
+        const struct vbus_byte *w = vbus_wire(b, b->delivered);
+        if ((int32_t)(w->end_us - t) > 0)
+            break;
+        for (uint8_t i = 0; i < b->nodes; i++) {
+            struct vbus_node *n = &b->node[i];
+            if (w->src == (int8_t)i || n->hal.baud != w->baud)
+                continue; /* a UART does not hear itself, nor another baud rate */
+            n->hal.now_us = w->end_us;
+            servo_rx_isr(&n->servo, w->byte);
+        }
+        b->delivered++;
+    }
+}
+
+void vbus_run_until(struct vbus *b, uint32_t t_us)
+{
+    while ((int32_t)(t_us - b->now_us) > 0) {
+        uint32_t t = b->now_us + b->step_us;
+        if ((int32_t)(t - t_us) > 0)
+            t = t_us;
+        deliver(b, t);
+        b->now_us = t;
+        for (uint8_t i = 0; i < b->nodes; i++) {
+            b->node[i].hal.now_us = t;
+            servo_poll(&b->node[i].servo);
+        }
+        collect(b);
+    }
+}
+
+void vbus_host_send(struct vbus *b, const uint8_t *bytes, uint32_t n)
+{
+    if (n == 0)
+        return;
+    uint32_t t0 = b->now_us;
+    for (uint32_t i = 0; i < n; i++)
+        wire_put(b, VBUS_HOST, bytes[i], hal_host_byte_start(t0, b->host_baud, i),
+                 hal_host_byte_end(t0, b->host_baud, i), b->host_baud);
+    b->last_host_end_us = hal_host_byte_end(t0, b->host_baud, n - 1u);
+    vbus_run_until(b, b->last_host_end_us);
+}
+
+uint32_t vbus_host_pending(const struct vbus *b)
+{
+    uint32_t count = 0;
+    for (uint32_t i = b->host_read; i < b->wire_len; i++)
+        if (vbus_wire(b, i)->src != VBUS_HOST)
+            count++;
+    return count;
+}
+
+const struct vbus_byte *vbus_host_next(struct vbus *b)
+{
+    while (vbus_wire(b, b->host_read)->src == VBUS_HOST)
+        b->host_read++;
+    return vbus_wire(b, b->host_read++);
+}

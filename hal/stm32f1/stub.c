@@ -1,0 +1,61 @@
+/* stub.c - link stub for the STM32F103 until the real port lands (issue 7): a vector
+ * table, .data/.bss start-up and a main loop around one servo, with HAL functions that
+ * touch no hardware. It proves the core links for Cortex-M3 with no floating point and
+ * shows its size; it does not drive a board. */
+#include <stdint.h>
+#include <string.h>
+
+#include "hal.h"
+#include "servo.h"
+
+#ifndef SERVO_BOARD
+#define SERVO_BOARD board_arm
+#endif
+
+struct hal {
+    uint32_t unused;
+};
+
+static struct hal stub_hal;
+static struct servo stub_servo;
+
+uint32_t hal_clock_us(struct hal *h) { (void)h; return 0; }
+void hal_uart_set_baud(struct hal *h, uint32_t baud) { (void)h; (void)baud; }
+void hal_uart_send(struct hal *h, const uint8_t *buf, uint16_t len) { (void)h; (void)buf; (void)len; }
+bool hal_uart_tx_busy(struct hal *h) { (void)h; return false; }
+uint32_t hal_irq_save(struct hal *h) { (void)h; return 0; }
+void hal_irq_restore(struct hal *h, uint32_t state) { (void)h; (void)state; }
+
+int main(void);
+void stub_reset(void);
+
+/* USART1 receive interrupt: the only core entry point in interrupt context. */
+void stub_usart1_irq(void);
+void stub_usart1_irq(void)
+{
+    servo_rx_isr(&stub_servo, 0);
+}
+
+extern uint32_t _sidata, _sdata, _edata, _sbss, _ebss, _estack;
+
+void stub_reset(void)
+{
+    memcpy(&_sdata, &_sidata, (size_t)((char *)&_edata - (char *)&_sdata));
+    memset(&_sbss, 0, (size_t)((char *)&_ebss - (char *)&_sbss));
+    main();
+    for (;;) {
+    }
+}
+
+__attribute__((section(".isr_vector"), used)) static void (*const vectors[16 + 38])(void) = {
+    [0] = (void (*)(void))(uintptr_t)&_estack,
+    [1] = stub_reset,
+    [16 + 37] = stub_usart1_irq,
+};
+
+int main(void)
+{
+    servo_init(&stub_servo, &SERVO_BOARD, &stub_hal);
+    for (;;)
+        servo_poll(&stub_servo);
+}

@@ -1,0 +1,35 @@
+/* board.h - per-variant board configuration: what the control table's defaults and the
+ * safety limits depend on. The MCU image links one board (chosen by CMake's BOARD);
+ * the host links all of them so one process can simulate a mixed bus. */
+#ifndef BOARD_H
+#define BOARD_H
+
+#include <stdint.h>
+
+/* The motor variants of PROTOCOL.md §8. */
+enum variant {
+    VARIANT_BASE,   /* B: chassis wheel, speed mode always */
+    VARIANT_FOOT,   /* F */
+    VARIANT_ARM,    /* A */
+    VARIANT_WRIST,  /* W */
+    VARIANT_FINGER, /* H */
+    VARIANT_COUNT
+};
+
+struct board {
+    const char *name;          /* "base", "foot", "arm", "wrist", "finger" */
+    uint8_t variant;           /* enum variant */
+    uint16_t model_number;     /* registers 0-1 */
+    uint16_t max_angle_ddeg;   /* mechanical range in 0.1 degree; 0 = continuous */
+    uint8_t current_limit;     /* register 12 default, 0.1 A */
+    uint32_t default_baud;     /* what register 4 = 0 means */
+    uint8_t return_delay;      /* register 5 default, x 500 us */
+    uint8_t photo_switches;    /* 1 if the board has the two homing switches */
+};
+
+extern const struct board board_base, board_foot, board_arm, board_wrist, board_finger;
+
+/* The reference board of a variant name ("arm"), or 0 if there is none. */
+const struct board *board_find(const char *name);
+
+#endif

@@ -1,0 +1,83 @@
+/* frame_rx.h - the frame receiver: fed one byte at a time from the UART receive
+ * interrupt, it cuts the byte stream into frames (PROTOCOL.md §1-§2) and hands them to
+ * the main loop through a single-producer/single-consumer queue.
+ *
+ * Interrupt side: frame_rx_byte() only. Main-loop side: everything else;
+ * frame_rx_set_gap() and frame_rx_idle() must be called with the receive interrupt masked.
+ *
+ * Resynchronisation: every `D5 5D` seen inside a frame may start another frame (the
+ * "shadow"). If the frame in progress turns out bad (checksum, invalid ID or length, or
+ * an inter-byte gap), the shadow takes over, so a lost byte costs at most the one packet
+ * it was in, even with packets sent back to back. A shadow that completes with a good
+ * checksum inside a frame that later proves bad is delivered after it. */
+#ifndef FRAME_RX_H
+#define FRAME_RX_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#define FRAME_SLOTS 4u    /* power of two: frames buffered between ISR and main loop */
+#define FRAME_BYTES 257u  /* ID, LEN and the LEN bytes it counts (INS, params, CHK) */
+
+enum frame_status { FRAME_OK, FRAME_BAD_CHECKSUM };
+
+/* One received frame, header stripped: buf = ID, LEN, INS, P1..Pn, CHK. */
+struct frame {
+    uint32_t end_us; /* arrival time of the last byte */
+    uint16_t len;    /* LEN + 2 */
+    uint8_t status;  /* enum frame_status */
+    uint8_t buf[FRAME_BYTES];
+};
+
+/* Parse state of one candidate frame (ISR only). */
+struct frame_parser {
+    uint16_t pos;  /* bytes stored so far */
+    uint16_t need; /* total bytes once LEN is known */
+    uint8_t slot;  /* index into frame_rx.slot */
+    uint8_t sum;
+};
+
+struct frame_rx {
+    struct frame slot[FRAME_SLOTS];
+    /* Published frames: ISR writes ready_head, main loop writes ready_tail. */
+    uint8_t ready[FRAME_SLOTS];
+    uint8_t ready_head, ready_tail;
+    /* Slots given back by the main loop: main writes free_head, ISR writes free_tail. */
+    uint8_t free_ring[FRAME_SLOTS];
+    uint8_t free_head, free_tail;
+    /* ISR-only state. */
+    struct frame_parser main, shadow;
+    uint8_t spare[FRAME_SLOTS]; /* slots the ISR dropped, reused before free_ring */
+    uint8_t spare_count;
+    uint8_t in_frame;     /* 1 while main is a frame in progress */
+    uint8_t shadow_state; /* 0 none, 1 in progress, 2 complete and waiting */
+    uint8_t prev;         /* previous byte, for spotting D5 5D */
+    uint32_t last_us;     /* arrival of the previous byte */
+    uint32_t gap_us;      /* inter-byte time-out; main loop sets it, irq masked */
+    uint32_t overruns;    /* frames lost because every slot was in use */
+};
+
+/* Empty receiver with the time-out for the given baud rate. */
+void frame_rx_init(struct frame_rx *rx, uint32_t baud);
+
+/* Inter-byte time-out of §1: 2 ms or 20 byte-times, whichever is longer. */
+uint32_t frame_rx_gap_us(uint32_t baud);
+
+/* ISR: one received byte that arrived at now_us. O(1), no loops. */
+void frame_rx_byte(struct frame_rx *rx, uint8_t byte, uint32_t now_us);
+
+/* Main loop, irq masked: apply the inter-byte time-out at now_us (so a frame waiting
+ * behind a broken one is delivered when the line falls quiet) and report whether the
+ * receiver is idle, i.e. not in the middle of a frame. A reply may only start then. */
+bool frame_rx_idle(struct frame_rx *rx, uint32_t now_us);
+
+/* Main loop, irq masked: change the time-out after a baud change. */
+void frame_rx_set_gap(struct frame_rx *rx, uint32_t gap_us);
+
+/* Main loop: the oldest published frame, or 0. Stays valid until frame_rx_release(). */
+const struct frame *frame_rx_peek(struct frame_rx *rx);
+
+/* Main loop: give the frame returned by frame_rx_peek() back to the receiver. */
+void frame_rx_release(struct frame_rx *rx);
+
+#endif

@@ -1,0 +1,48 @@
+/* proto.h - wire constants of the servo bus (PROTOCOL.md §2-§4) and the status packet
+ * builder. Pure functions, no state. */
+#ifndef PROTO_H
+#define PROTO_H
+
+#include <stdint.h>
+
+#define PROTO_HEADER0 0xD5u
+#define PROTO_HEADER1 0x5Du
+#define PROTO_ID_BROADCAST 0xFEu
+#define PROTO_ID_MAX 0xFDu /* highest ID of one servo */
+#define PROTO_ID_INVALID 0xFFu
+
+/* Instructions (§4). */
+#define INS_PING 0x01u
+#define INS_READ 0x02u
+#define INS_WRITE 0x03u
+#define INS_REG_WRITE 0x04u
+#define INS_ACTION 0x05u
+#define INS_RESET 0x06u
+#define INS_START_END 0x07u
+#define INS_TRAJ_WRITE 0x0Au
+#define INS_TRAJ_ACTION 0x0Bu
+#define INS_SYNC_WRITE 0x83u
+#define INS_CUSTOM 0xFFu
+
+/* ERR byte bits (§3.1). */
+#define ERR_OVER_TEMPERATURE 0x01u
+#define ERR_OVER_CURRENT 0x02u
+#define ERR_OVER_VOLTAGE 0x04u
+#define ERR_UNDER_VOLTAGE 0x08u
+#define ERR_CHECKSUM 0x10u
+#define ERR_INSTRUCTION 0x20u
+#define ERR_STALL 0x40u
+
+/* Longest status packet: header, ID, LEN, ERR, 49 data bytes (a READ of the whole table
+ * after address 0 is 50), checksum. */
+#define PROTO_STATUS_MAX (5u + 50u + 1u)
+
+/* Plain 8-bit sum of n bytes (§2: not inverted). */
+uint8_t proto_sum(const uint8_t *p, uint16_t n);
+
+/* Write a status packet `D5 5D id LEN err data... CHK` into out (PROTO_STATUS_MAX bytes);
+ * returns its length. */
+uint16_t proto_build_status(uint8_t *out, uint8_t id, uint8_t err, const uint8_t *data,
+                            uint8_t n);
+
+#endif

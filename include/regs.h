@@ -1,0 +1,159 @@
+/* regs.h - the control table (PROTOCOL.md §5): one descriptor per register drives
+ * validation, factory defaults, READ/WRITE and the generated register reference. */
+#ifndef REGS_H
+#define REGS_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "board.h"
+
+#define REGS_SIZE 50u
+
+/* 1: compile register names and descriptions in (host tools and docs); the MCU image
+ * leaves them out to save flash. */
+#ifndef REGS_WITH_TEXT
+#define REGS_WITH_TEXT 0
+#endif
+
+/* Register addresses used by name in the core. */
+enum {
+    REG_MODEL_NUMBER = 0,
+    REG_FIRMWARE_VERSION = 2,
+    REG_ID = 3,
+    REG_BAUD_RATE = 4,
+    REG_RETURN_DELAY = 5,
+    REG_CW_LIMIT = 6,
+    REG_CCW_LIMIT = 8,
+    REG_TEMPERATURE_LIMIT = 11,
+    REG_CURRENT_LIMIT = 12,
+    REG_RESOLUTION = 13,
+    REG_STATUS_RETURN_LEVEL = 16,
+    REG_HEARTBEAT_ENABLE = 17,
+    REG_UNLOAD_CONDITIONS = 18,
+    REG_HOMING_ZERO_SIDE = 19,
+    REG_RS485_TERMINATION = 20,
+    REG_BASE_ACCELERATION = 21,
+    REG_BASE_DECELERATION = 22,
+    REG_HOMING = 24,
+    REG_CLEAR_UNLOAD = 25,
+    REG_GOAL_POSITION = 30,
+    REG_MOVING_SPEED = 32,
+    REG_ACCELERATION = 34,
+    REG_DECELERATION = 35,
+    REG_PRESENT_POSITION = 36,
+    REG_PRESENT_SPEED = 38,
+    REG_TURNED_ANGLE = 40,
+    REG_MOVING = 42,
+    REG_BRAKE = 43,
+    REG_REGISTERED = 44,
+    REG_PRESENT_TEMPERATURE = 46,
+    REG_SLEEP = 47,
+    REG_PHOTO_SWITCHES = 48,
+    REG_MOVE_WITHOUT_REFERENCE = 49,
+};
+
+/* Register 18 bits that concern the bus (§7.2). */
+#define UNLOAD_REPORT_INSTRUCTION 0x20u
+#define UNLOAD_REPORT_CHECKSUM 0x10u
+
+enum reg_access { REG_ACCESS_R = 1, REG_ACCESS_W = 2, REG_ACCESS_RW = 3 };
+enum reg_area { REG_AREA_NONE, REG_AREA_EE, REG_AREA_RAM };
+
+/* Where a register's factory value comes from. */
+enum reg_default {
+    REG_DEF_CONST,        /* the descriptor's def */
+    REG_DEF_MODEL,        /* board model number */
+    REG_DEF_FIRMWARE,     /* SERVO_FW_VERSION of the build */
+    REG_DEF_RETURN_DELAY, /* board return delay */
+    REG_DEF_MAX_ANGLE,    /* board max angle in position units */
+    REG_DEF_CURRENT,      /* board current limit */
+};
+
+/* What a value means, for the docs and the host tools. */
+enum reg_unit {
+    REG_UNIT_NONE,
+    REG_UNIT_POSITION,  /* register 13 x 0.1 degree */
+    REG_UNIT_SPEED,     /* position units per second */
+    REG_UNIT_DIR_SPEED, /* bit 15 direction, bits 0-14 position units per second */
+    REG_UNIT_ACCEL,     /* 10 degree/s^2 */
+    REG_UNIT_DELAY,     /* 500 us */
+    REG_UNIT_CURRENT,   /* 0.1 A */
+    REG_UNIT_TEMP,      /* bit 7 sign, bits 0-6 degree C */
+    REG_UNIT_RES,       /* 0.1 degree */
+};
+
+#define REG_FLAG_SIGNED 0x01u /* two's complement on the wire */
+
+/* Variant masks. */
+#define REG_V(v) (1u << (v))
+#define REG_V_ALL 0x1Fu
+#define REG_V_B REG_V(VARIANT_BASE)
+#define REG_V_NOT_B (REG_V_ALL & ~REG_V_B)
+#define REG_V_WH (REG_V(VARIANT_WRIST) | REG_V(VARIANT_FINGER))
+#define REG_V_NOT_WH (REG_V_ALL & ~REG_V_WH)
+
+struct reg_desc {
+    uint8_t size; /* 1 or 2 at the register's first address; 0 elsewhere */
+    uint8_t access;
+    uint8_t area;
+    uint8_t variants;
+    uint8_t def_src;
+    uint8_t unit;
+    uint8_t flags;
+    uint16_t def;
+    uint16_t min;
+    uint16_t max;
+#if REGS_WITH_TEXT
+    const char *name; /* snake_case, as the host tools spell it */
+    const char *doc;
+#endif
+};
+
+/* The table, indexed by address. */
+extern const struct reg_desc regs_table[REGS_SIZE];
+
+/* The control table of one servo. 2-byte aligned so that a 16-bit register at an even
+ * address is one halfword store/load on the MCU. */
+struct regs {
+    uint8_t mem[REGS_SIZE] __attribute__((aligned(2)));
+    const struct board *board;
+};
+
+/* True if a register starts at addr and exists on this board's variant. */
+bool regs_applicable(const struct board *b, uint8_t addr);
+
+/* Factory value of the register starting at addr (0 for reserved addresses). */
+uint16_t regs_default(const struct board *b, uint8_t addr);
+
+/* Fill every register with its factory value. */
+void regs_init(struct regs *r, const struct board *b);
+
+/* Value of the register that starts at addr (1 or 2 bytes, little-endian). */
+uint16_t regs_get(const struct regs *r, uint8_t addr);
+
+/* Set the register that starts at addr, without validation (the core's own updates). */
+void regs_set(struct regs *r, uint8_t addr, uint16_t value);
+
+/* Copy count bytes from addr for a READ: reserved, write-only and not-applicable
+ * addresses read as 0. The caller has checked addr + count <= REGS_SIZE. */
+void regs_read(const struct regs *r, uint8_t addr, uint8_t count, uint8_t *out);
+
+/* Validate a host write of n bytes at addr (§4.3): whole registers only, writable,
+ * applicable, in range, and CW limit <= CCW limit afterwards. Returns true if valid. */
+bool regs_write_valid(const struct regs *r, uint8_t addr, const uint8_t *data, uint8_t n);
+
+/* True if [addr, addr + n) touches a register of the given area. */
+bool regs_touches_area(uint8_t addr, uint8_t n, uint8_t area);
+
+/* Angle limits in force: both 0 means speed mode (and the base is always speed mode). */
+bool regs_speed_mode(const struct regs *r);
+
+/* The present position as the goal register counts it: register 36 on the wrist and
+ * finger, the turned angle (40) elsewhere. */
+uint16_t regs_present_position(const struct regs *r);
+
+/* Goal clamped to the angle limits (unchanged in speed mode). */
+uint16_t regs_clamp_goal(const struct regs *r, uint16_t goal);
+
+#endif

@@ -1,0 +1,44 @@
+/* servo.h - one servo: all of its mutable state in one struct, its interrupt entry point
+ * and its main-loop step. Several servos may live in one host process. */
+#ifndef SERVO_H
+#define SERVO_H
+
+#include <stdint.h>
+
+#include "board.h"
+#include "frame_rx.h"
+#include "link.h"
+#include "regs.h"
+#include "traj.h"
+
+struct hal;
+
+/* The write held by REG WRITE until ACTION (§4.4). */
+struct held_write {
+    uint8_t addr;
+    uint8_t n; /* 0: nothing held */
+    uint8_t data[REGS_SIZE];
+};
+
+struct servo {
+    struct hal *hal;
+    const struct board *board;
+    struct frame_rx rx;
+    struct regs regs;
+    struct link link;
+    struct held_write held;
+    struct traj traj;
+    uint8_t live_err; /* ERR bits 0-3 and 6, owned by the safety layer */
+};
+
+/* Power-up: factory table (until a persistent store provides the saved one), settings
+ * in force, receiver empty, motor off. */
+void servo_init(struct servo *s, const struct board *b, struct hal *hal);
+
+/* Interrupt context: the UART received one byte. */
+void servo_rx_isr(struct servo *s, uint8_t byte);
+
+/* Main loop: do whatever is due (send an answer, dispatch the next frame). Never blocks. */
+void servo_poll(struct servo *s);
+
+#endif

@@ -1,0 +1,31 @@
+/* traj.h - the stored trajectory of TRAJECTORY WRITE (PROTOCOL.md §4.7): validation and
+ * storage only; the motion layer runs it. */
+#ifndef TRAJ_H
+#define TRAJ_H
+
+#include <stdint.h>
+
+#include "regs.h"
+
+/* One packet carries at most 84 points in the 3-byte form (LEN 255), 63 in the 4-byte
+ * form; the store holds whatever one packet can carry. */
+#define TRAJ_POINTS_MAX 84u
+
+struct traj_point {
+    uint16_t angle; /* position units, clamped to the angle limits */
+    uint16_t speed; /* position units per second, never 0 */
+};
+
+struct traj {
+    struct traj_point pt[TRAJ_POINTS_MAX];
+    uint8_t count;
+};
+
+/* Replace the stored trajectory with the parameters of a TRAJECTORY WRITE (count, then
+ * the points). All or nothing: returns 0, or ERR_INSTRUCTION leaving t unchanged. */
+uint8_t traj_write(struct traj *t, const struct regs *r, const uint8_t *p, uint8_t n);
+
+/* Forget the stored points. */
+void traj_clear(struct traj *t);
+
+#endif

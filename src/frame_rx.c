@@ -1,0 +1,208 @@
+/* frame_rx.c - byte-at-a-time frame receiver and its ISR-to-main-loop queue. */
+#include <string.h>
+
+#include "frame_rx.h"
+#include "proto.h"
+
+#define MASK (FRAME_SLOTS - 1u)
+#define NO_SLOT 0xFFu
+
+enum { SHADOW_NONE, SHADOW_RUNNING, SHADOW_WAITING };
+enum { STEP_MORE, STEP_DONE, STEP_INVALID };
+
+_Static_assert((FRAME_SLOTS & MASK) == 0, "FRAME_SLOTS must be a power of two");
+_Static_assert(FRAME_BYTES >= 2u + 255u, "a slot must hold the longest LEN");
+
+/* Each ring index is written by one side only; the other side reads it with acquire so
+ * it sees the slot contents written before the index moved. */
+static uint8_t load_acquire(const uint8_t *p) { return __atomic_load_n(p, __ATOMIC_ACQUIRE); }
+static void store_release(uint8_t *p, uint8_t v) { __atomic_store_n(p, v, __ATOMIC_RELEASE); }
+
+uint32_t frame_rx_gap_us(uint32_t baud)
+{
+    uint32_t twenty_bytes = (200u * 1000000u + baud - 1u) / baud; /* 20 x 10 bits */
+    return twenty_bytes > 2000u ? twenty_bytes : 2000u;
+}
+
+void frame_rx_init(struct frame_rx *rx, uint32_t baud)
+{
+    memset(rx, 0, sizeof *rx);
+    for (uint8_t i = 0; i < FRAME_SLOTS; i++)
+        rx->free_ring[i] = i;
+    rx->free_head = FRAME_SLOTS;
+    rx->gap_us = frame_rx_gap_us(baud);
+}
+
+/* ISR: a slot for a new candidate frame, or NO_SLOT when all are in use. */
+static uint8_t slot_take(struct frame_rx *rx)
+{
+    if (rx->spare_count)
+        return rx->spare[--rx->spare_count];
+    uint8_t tail = rx->free_tail;
+    if (tail == load_acquire(&rx->free_head))
+        return NO_SLOT;
+    uint8_t s = rx->free_ring[tail & MASK];
+    store_release(&rx->free_tail, (uint8_t)(tail + 1u));
+    return s;
+}
+
+static void slot_drop(struct frame_rx *rx, uint8_t s)
+{
+    rx->spare[rx->spare_count++] = s;
+}
+
+static void slot_publish(struct frame_rx *rx, uint8_t s)
+{
+    uint8_t head = rx->ready_head;
+    rx->ready[head & MASK] = s;
+    store_release(&rx->ready_head, (uint8_t)(head + 1u));
+}
+
+static void parser_start(struct frame_parser *p, uint8_t slot)
+{
+    p->slot = slot;
+    p->pos = 0;
+    p->need = FRAME_BYTES;
+}
+
+/* ISR: feed one byte to a candidate frame. */
+static uint8_t parser_step(struct frame_rx *rx, struct frame_parser *p, uint8_t b,
+                           uint32_t now_us)
+{
+    struct frame *f = &rx->slot[p->slot];
+    f->buf[p->pos++] = b;
+    if (p->pos == 1u) { /* ID */
+        p->sum = b;
+        return b == PROTO_ID_INVALID ? STEP_INVALID : STEP_MORE;
+    }
+    if (p->pos == 2u) { /* LEN: counts INS, parameters and CHK */
+        p->sum = (uint8_t)(p->sum + b);
+        p->need = (uint16_t)(b + 2u);
+        return b < 2u ? STEP_INVALID : STEP_MORE;
+    }
+    if (p->pos < p->need) {
+        p->sum = (uint8_t)(p->sum + b);
+        return STEP_MORE;
+    }
+    f->len = p->need;
+    f->end_us = now_us;
+    f->status = b == p->sum ? FRAME_OK : FRAME_BAD_CHECKSUM;
+    return STEP_DONE;
+}
+
+/* ISR: the frame in progress is over (bad or timed out); a waiting shadow is delivered,
+ * a running one becomes the frame in progress. */
+static void main_failed(struct frame_rx *rx)
+{
+    if (rx->shadow_state == SHADOW_RUNNING) {
+        rx->main = rx->shadow;
+    } else {
+        if (rx->shadow_state == SHADOW_WAITING)
+            slot_publish(rx, rx->shadow.slot);
+        rx->in_frame = 0;
+    }
+    rx->shadow_state = SHADOW_NONE;
+}
+
+/* ISR: an inter-byte gap ends everything in progress. */
+static void abandon(struct frame_rx *rx)
+{
+    slot_drop(rx, rx->main.slot);
+    if (rx->shadow_state == SHADOW_RUNNING) {
+        slot_drop(rx, rx->shadow.slot);
+        rx->shadow_state = SHADOW_NONE;
+    }
+    main_failed(rx);
+}
+
+void frame_rx_byte(struct frame_rx *rx, uint8_t b, uint32_t now_us)
+{
+    uint8_t prev = rx->prev;
+    if (now_us - rx->last_us > rx->gap_us) {
+        if (rx->in_frame)
+            abandon(rx);
+        prev = 0; /* a header cannot straddle a gap */
+    }
+    rx->last_us = now_us;
+    rx->prev = b;
+    bool header = prev == PROTO_HEADER0 && b == PROTO_HEADER1;
+
+    if (!rx->in_frame) {
+        if (header) {
+            uint8_t s = slot_take(rx);
+            if (s == NO_SLOT) {
+                rx->overruns++;
+                return;
+            }
+            parser_start(&rx->main, s);
+            rx->in_frame = 1;
+        }
+        return;
+    }
+
+    if (rx->shadow_state == SHADOW_RUNNING) {
+        uint8_t r = parser_step(rx, &rx->shadow, b, now_us);
+        if (r == STEP_DONE && rx->slot[rx->shadow.slot].status == FRAME_OK) {
+            rx->shadow_state = SHADOW_WAITING;
+        } else if (r != STEP_MORE) {
+            slot_drop(rx, rx->shadow.slot); /* noise inside the frame in progress */
+            rx->shadow_state = SHADOW_NONE;
+        }
+    } else if (rx->shadow_state == SHADOW_NONE && header) {
+        uint8_t s = slot_take(rx);
+        if (s != NO_SLOT) {
+            parser_start(&rx->shadow, s);
+            rx->shadow_state = SHADOW_RUNNING;
+        }
+    }
+
+    uint8_t r = parser_step(rx, &rx->main, b, now_us);
+    if (r == STEP_MORE)
+        return;
+    bool good = r == STEP_DONE && rx->slot[rx->main.slot].status == FRAME_OK;
+    if (r == STEP_DONE)
+        slot_publish(rx, rx->main.slot); /* bad checksums too: they may get an answer */
+    else
+        slot_drop(rx, rx->main.slot);
+    if (good) {
+        /* A good frame: any header seen inside it was its payload. */
+        if (rx->shadow_state != SHADOW_NONE)
+            slot_drop(rx, rx->shadow.slot);
+        rx->shadow_state = SHADOW_NONE;
+        rx->in_frame = 0;
+        return;
+    }
+    main_failed(rx);
+}
+
+bool frame_rx_idle(struct frame_rx *rx, uint32_t now_us)
+{
+    if (rx->in_frame && now_us - rx->last_us > rx->gap_us) {
+        abandon(rx);
+        rx->prev = 0;
+    }
+    return !rx->in_frame;
+}
+
+void frame_rx_set_gap(struct frame_rx *rx, uint32_t gap_us)
+{
+    rx->gap_us = gap_us;
+}
+
+const struct frame *frame_rx_peek(struct frame_rx *rx)
+{
+    uint8_t tail = rx->ready_tail;
+    if (tail == load_acquire(&rx->ready_head))
+        return 0;
+    return &rx->slot[rx->ready[tail & MASK]];
+}
+
+void frame_rx_release(struct frame_rx *rx)
+{
+    uint8_t tail = rx->ready_tail;
+    uint8_t s = rx->ready[tail & MASK];
+    store_release(&rx->ready_tail, (uint8_t)(tail + 1u));
+    uint8_t head = rx->free_head;
+    rx->free_ring[head & MASK] = s;
+    store_release(&rx->free_head, (uint8_t)(head + 1u));
+}

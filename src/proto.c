@@ -1,0 +1,26 @@
+/* proto.c - checksum and status packet encoding (PROTOCOL.md §2, §3). */
+#include <string.h>
+
+#include "proto.h"
+
+uint8_t proto_sum(const uint8_t *p, uint16_t n)
+{
+    uint8_t sum = 0;
+    while (n--)
+        sum = (uint8_t)(sum + *p++);
+    return sum;
+}
+
+uint16_t proto_build_status(uint8_t *out, uint8_t id, uint8_t err, const uint8_t *data,
+                            uint8_t n)
+{
+    out[0] = PROTO_HEADER0;
+    out[1] = PROTO_HEADER1;
+    out[2] = id;
+    out[3] = (uint8_t)(n + 2u);
+    out[4] = err;
+    if (n)
+        memcpy(&out[5], data, n);
+    out[5u + n] = proto_sum(&out[2], (uint16_t)(n + 3u));
+    return (uint16_t)(n + 6u);
+}

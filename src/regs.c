@@ -1,0 +1,222 @@
+/* regs.c - the control table: the single descriptor table of PROTOCOL.md §5.1 and the
+ * operations every other module derives from it. */
+#include <string.h>
+
+#include "regs.h"
+
+#ifndef SERVO_FW_VERSION
+#define SERVO_FW_VERSION 1
+#endif
+
+#if REGS_WITH_TEXT
+#define TEXT(name, doc) , name, doc
+#else
+#define TEXT(name, doc)
+#endif
+
+#define R REG_ACCESS_R
+#define W REG_ACCESS_W
+#define RW REG_ACCESS_RW
+#define EE REG_AREA_EE
+#define RAM REG_AREA_RAM
+
+/* size, access, area, variants, default source, unit, flags, default, min, max */
+const struct reg_desc regs_table[REGS_SIZE] = {
+    [REG_MODEL_NUMBER] = {2, R, EE, REG_V_ALL, REG_DEF_MODEL, REG_UNIT_NONE, 0, 0, 0, 0xFFFF
+        TEXT("model_number", "Model number of the board.")},
+    [REG_FIRMWARE_VERSION] = {1, R, EE, REG_V_ALL, REG_DEF_FIRMWARE, REG_UNIT_NONE, 0, 0, 0, 0xFF
+        TEXT("firmware_version", "Firmware version of the running image.")},
+    [REG_ID] = {1, RW, EE, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, 1, 0, 253
+        TEXT("id", "Bus ID. Takes effect after the answer to the write has been sent.")},
+    [REG_BAUD_RATE] = {1, RW, EE, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, 0, 0, 10
+        TEXT("baud_rate", "Baud rate code (0 = the variant's default, see the baud table). "
+                          "Takes effect after the answer has been sent.")},
+    [REG_RETURN_DELAY] = {1, RW, EE, REG_V_ALL, REG_DEF_RETURN_DELAY, REG_UNIT_DELAY, 0, 0, 0, 255
+        TEXT("return_delay", "Delay between the last request byte and the answer.")},
+    [REG_CW_LIMIT] = {2, RW, EE, REG_V_ALL, REG_DEF_CONST, REG_UNIT_POSITION, 0, 0, 0, 0x7FFF
+        TEXT("cw_angle_limit", "Lower angle limit. Must not exceed the CCW limit. Both limits 0 "
+                               "= speed mode.")},
+    [REG_CCW_LIMIT] = {2, RW, EE, REG_V_ALL, REG_DEF_MAX_ANGLE, REG_UNIT_POSITION, 0, 0, 0, 0x7FFF
+        TEXT("ccw_angle_limit", "Upper angle limit; factory value is the board's range.")},
+    [REG_TEMPERATURE_LIMIT] = {1, RW, EE, REG_V_ALL, REG_DEF_CONST, REG_UNIT_TEMP, 0, 80, 0, 255
+        TEXT("temperature_limit", "Over-temperature threshold.")},
+    [REG_CURRENT_LIMIT] = {1, RW, EE, REG_V_ALL, REG_DEF_CURRENT, REG_UNIT_CURRENT, 0, 0, 0, 255
+        TEXT("current_limit", "Over-current threshold.")},
+    [REG_RESOLUTION] = {1, RW, EE, REG_V_ALL, REG_DEF_CONST, REG_UNIT_RES, 0, 10, 1, 255
+        TEXT("angle_resolution", "Size of one position unit. Changing it stops motion, clears "
+                                 "the trajectory and rescales the limits and the goal.")},
+    [REG_STATUS_RETURN_LEVEL] = {1, RW, EE, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, 2, 0, 2
+        TEXT("status_return_level", "0: answer PING only; 1: PING and READ; 2: everything.")},
+    [REG_HEARTBEAT_ENABLE] = {1, RW, EE, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, 1, 0, 1
+        TEXT("heartbeat_enable", "1: stop when no valid packet arrives for 500 ms.")},
+    [REG_UNLOAD_CONDITIONS] = {1, RW, EE, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, 0x7F, 0, 0x7F
+        TEXT("unload_conditions", "Bit 6 stall, 3 under-voltage, 2 over-voltage, 1 over-current, "
+                                  "0 over-temperature: unload on it. Bit 5/4: report "
+                                  "instruction/checksum errors.")},
+    [REG_HOMING_ZERO_SIDE] = {1, RW, EE, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, 1, 1, 2
+        TEXT("homing_zero_side", "1: zero at the CW (negative) end; 2: at the CCW end.")},
+    [REG_RS485_TERMINATION] = {1, RW, EE, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, 0, 0, 1
+        TEXT("rs485_termination", "1: switch the 120 ohm bus terminator on.")},
+    [REG_BASE_ACCELERATION] = {1, RW, EE, REG_V_B, REG_DEF_CONST, REG_UNIT_ACCEL, 0, 36, 0, 255
+        TEXT("base_acceleration", "Acceleration of the base (0 = no ramp).")},
+    [REG_BASE_DECELERATION] = {1, RW, EE, REG_V_B, REG_DEF_CONST, REG_UNIT_ACCEL, 0, 36, 0, 255
+        TEXT("base_deceleration", "Deceleration of the base (0 = no ramp).")},
+    [REG_HOMING] = {1, RW, RAM, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, 0, 0, 1
+        TEXT("homing", "Write 1 to start homing, 0 to stop. Reads: low nibble as written, high "
+                       "nibble 0 never, 1 running, 2 done, 3 failed.")},
+    [REG_CLEAR_UNLOAD] = {1, W, RAM, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, 0, 1, 1
+        TEXT("clear_unload", "Write 1 to clear a latched protection unload. Reads 0.")},
+    [REG_GOAL_POSITION] = {2, RW, RAM, REG_V_ALL, REG_DEF_CONST, REG_UNIT_POSITION, 0, 0, 0, 0xFFFF
+        TEXT("goal_position", "Target of a move, clamped to the angle limits. Starts equal to "
+                              "the present position. Base: relative to the present angle.")},
+    [REG_MOVING_SPEED] = {2, RW, RAM, REG_V_ALL, REG_DEF_CONST, REG_UNIT_DIR_SPEED, 0, 0, 0, 0xFFFF
+        TEXT("moving_speed", "Cruise speed; in speed mode the turning speed. 0 stops.")},
+    [REG_ACCELERATION] = {1, RW, RAM, REG_V_NOT_B, REG_DEF_CONST, REG_UNIT_ACCEL, 0, 36, 0, 255
+        TEXT("acceleration", "Acceleration (0 = no ramp).")},
+    [REG_DECELERATION] = {1, RW, RAM, REG_V_NOT_B, REG_DEF_CONST, REG_UNIT_ACCEL, 0, 36, 0, 255
+        TEXT("deceleration", "Deceleration (0 = no ramp).")},
+    [REG_PRESENT_POSITION] = {2, R, RAM, REG_V_WH, REG_DEF_CONST, REG_UNIT_POSITION, 0, 0, 0, 0xFFFF
+        TEXT("present_position", "Absolute present position.")},
+    [REG_PRESENT_SPEED] = {2, R, RAM, REG_V_ALL, REG_DEF_CONST, REG_UNIT_SPEED, REG_FLAG_SIGNED, 0,
+        0, 0xFFFF
+        TEXT("present_speed", "Present speed, positive in the positive direction.")},
+    [REG_TURNED_ANGLE] = {2, R, RAM, REG_V_NOT_WH, REG_DEF_CONST, REG_UNIT_POSITION,
+        REG_FLAG_SIGNED, 0, 0, 0xFFFF
+        TEXT("turned_angle", "Turned angle, wrapping; relative on base and foot, absolute on "
+                             "the arm.")},
+    [REG_MOVING] = {1, R, RAM, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, 0, 0, 1
+        TEXT("moving", "1 while a motion runs.")},
+    [REG_BRAKE] = {1, RW, RAM, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, 0, 0, 1
+        TEXT("brake", "1: stop at once and hold.")},
+    [REG_REGISTERED] = {1, R, RAM, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, 0, 0, 1
+        TEXT("registered", "1 while a REG WRITE is held.")},
+    [REG_PRESENT_TEMPERATURE] = {1, R, RAM, REG_V_ALL, REG_DEF_CONST, REG_UNIT_TEMP, 0, 0, 0, 255
+        TEXT("present_temperature", "Present temperature.")},
+    [REG_SLEEP] = {1, RW, RAM, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, 0, 0, 1
+        TEXT("sleep", "1: torque off, low power; the servo still answers.")},
+    [REG_PHOTO_SWITCHES] = {1, R, RAM, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, 0, 0, 3
+        TEXT("photo_switches", "Bit 0 switch 1, bit 1 switch 2.")},
+    [REG_MOVE_WITHOUT_REFERENCE] = {1, RW, RAM, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, 0, 0, 1
+        TEXT("move_without_reference", "1: allow speed mode before homing has succeeded.")},
+};
+
+bool regs_applicable(const struct board *b, uint8_t addr)
+{
+    if (addr >= REGS_SIZE)
+        return false;
+    const struct reg_desc *d = &regs_table[addr];
+    return d->size && (d->variants & REG_V(b->variant));
+}
+
+uint16_t regs_default(const struct board *b, uint8_t addr)
+{
+    const struct reg_desc *d = &regs_table[addr];
+    switch (d->def_src) {
+    case REG_DEF_MODEL:
+        return b->model_number;
+    case REG_DEF_FIRMWARE:
+        return SERVO_FW_VERSION;
+    case REG_DEF_RETURN_DELAY:
+        return b->return_delay;
+    case REG_DEF_MAX_ANGLE:
+        return (uint16_t)(b->max_angle_ddeg / regs_table[REG_RESOLUTION].def);
+    case REG_DEF_CURRENT:
+        return b->current_limit;
+    default:
+        return d->def;
+    }
+}
+
+uint16_t regs_get(const struct regs *r, uint8_t addr)
+{
+    if (regs_table[addr].size == 2)
+        return *(const uint16_t *)(const void *)&r->mem[addr]; /* one aligned load */
+    return r->mem[addr];
+}
+
+void regs_set(struct regs *r, uint8_t addr, uint16_t value)
+{
+    if (regs_table[addr].size == 2)
+        *(uint16_t *)(void *)&r->mem[addr] = value; /* one aligned store: never torn */
+    else
+        r->mem[addr] = (uint8_t)value;
+}
+
+void regs_init(struct regs *r, const struct board *b)
+{
+    memset(r->mem, 0, sizeof r->mem);
+    r->board = b;
+    for (uint8_t a = 0; a < REGS_SIZE; a++)
+        if (regs_applicable(b, a))
+            regs_set(r, a, regs_default(b, a));
+}
+
+void regs_read(const struct regs *r, uint8_t addr, uint8_t count, uint8_t *out)
+{
+    /* Walk from the start of the register that holds addr, so a read that starts on a
+     * high byte still sees that register's visibility. */
+    for (uint8_t i = 0; i < count; i++) {
+        uint8_t a = (uint8_t)(addr + i);
+        uint8_t start = a;
+        if (!regs_table[a].size && a && regs_table[a - 1].size == 2)
+            start = (uint8_t)(a - 1);
+        const struct reg_desc *d = &regs_table[start];
+        bool visible = regs_applicable(r->board, start) && (d->access & REG_ACCESS_R);
+        out[i] = visible ? r->mem[a] : 0;
+    }
+}
+
+static uint16_t value_at(const uint8_t *p, uint8_t size)
+{
+    return size == 2 ? (uint16_t)(p[0] | (p[1] << 8)) : p[0];
+}
+
+bool regs_write_valid(const struct regs *r, uint8_t addr, const uint8_t *data, uint8_t n)
+{
+    if (n == 0 || addr >= REGS_SIZE || n > REGS_SIZE - addr)
+        return false;
+    uint16_t cw = regs_get(r, REG_CW_LIMIT), ccw = regs_get(r, REG_CCW_LIMIT);
+    for (uint8_t i = 0; i < n;) {
+        uint8_t a = (uint8_t)(addr + i);
+        const struct reg_desc *d = &regs_table[a];
+        if (!regs_applicable(r->board, a) || !(d->access & REG_ACCESS_W) || d->size > n - i)
+            return false;
+        uint16_t v = value_at(&data[i], d->size);
+        if (v < d->min || v > d->max)
+            return false;
+        if (a == REG_CW_LIMIT)
+            cw = v;
+        if (a == REG_CCW_LIMIT)
+            ccw = v;
+        i = (uint8_t)(i + d->size);
+    }
+    return cw <= ccw;
+}
+
+bool regs_touches_area(uint8_t addr, uint8_t n, uint8_t area)
+{
+    for (uint8_t i = 0; i < n; i++)
+        if (regs_table[addr + i].size && regs_table[addr + i].area == area)
+            return true;
+    return false;
+}
+
+bool regs_speed_mode(const struct regs *r)
+{
+    return r->board->variant == VARIANT_BASE ||
+           (regs_get(r, REG_CW_LIMIT) == 0 && regs_get(r, REG_CCW_LIMIT) == 0);
+}
+
+uint16_t regs_clamp_goal(const struct regs *r, uint16_t goal)
+{
+    if (regs_speed_mode(r))
+        return goal;
+    uint16_t lo = regs_get(r, REG_CW_LIMIT), hi = regs_get(r, REG_CCW_LIMIT);
+    return goal < lo ? lo : goal > hi ? hi : goal;
+}
+
+uint16_t regs_present_position(const struct regs *r)
+{
+    return regs_get(r, regs_applicable(r->board, REG_PRESENT_POSITION) ? REG_PRESENT_POSITION
+                                                                       : REG_TURNED_ANGLE);
+}

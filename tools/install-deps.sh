@@ -1,0 +1,19 @@
+#!/usr/bin/env bash
+# Install the Debian packages the build, tests, benchmarks and demo need, if missing.
+# As root it runs apt-get; otherwise it prints the exact command and fails.
+set -euo pipefail
+pkgs=(cmake make gcc libc6-dev libcmocka-dev pkg-config gcc-arm-none-eabi
+      libnewlib-arm-none-eabi binutils-arm-none-eabi valgrind python3)
+missing=()
+for p in "${pkgs[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+[ ${#missing[@]} -eq 0 ] && exit 0
+echo "install-deps: missing Debian packages: ${missing[*]}"
+if [ "$(id -u)" -ne 0 ]; then
+    echo "install-deps: run as root:  apt-get update && apt-get install -y ${missing[*]}" >&2
+    exit 1
+fi
+export DEBIAN_FRONTEND=noninteractive
+apt-get update -qq
+apt-get install -y -qq --no-install-recommends "${missing[@]}"
