@@ -12,6 +12,12 @@ add_library(hal_host STATIC hal/host/hal_host.c)
 target_include_directories(hal_host PUBLIC hal hal/host)
 target_compile_options(hal_host PRIVATE ${SERVO_WARNINGS})
 
+# The virtual bus: several host-built servos and a host on one wire, in virtual time.
+add_library(vbus STATIC hal/host/vbus.c)
+target_include_directories(vbus PUBLIC hal/host)
+target_link_libraries(vbus PUBLIC servo_core hal_host)
+target_compile_options(vbus PRIVATE ${SERVO_WARNINGS})
+
 add_subdirectory(tools)
 
 enable_testing()

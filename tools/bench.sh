@@ -1,0 +1,42 @@
+#!/usr/bin/env bash
+# make bench: instructions per received byte and per dispatched instruction (callgrind,
+# counting only inside the function under test, on the optimised host build), reply
+# latency in virtual time, and the size of the Cortex-M3 image.
+set -euo pipefail
+build=${1:-build/bench}
+bench=$build/tools/bench
+out=$(mktemp -d)
+trap 'rm -rf "$out"' EXIT
+
+# Instructions executed inside function $2 while running `bench $1 $3`, divided by $3.
+per_call() {
+    valgrind --tool=callgrind --toggle-collect="$2" --callgrind-out-file="$out/cg" \
+        "$bench" "$1" "$3" >/dev/null 2>&1
+    local total
+    total=$(awk '/^summary:/ {print $2}' "$out/cg")
+    awk -v t="$total" -v n="$3" 'BEGIN { printf "%.1f", t / n }'
+}
+
+echo "== receive path (UART ISR -> frame_rx_byte), host x86-64 instructions, -O2"
+echo "instructions per received byte: $(per_call rx frame_rx_byte 100000)   (target <= 60)"
+echo
+echo "== dispatch (main loop -> dispatch_frame), instructions per frame"
+for w in read write sync; do
+    n=$(per_call "$w" dispatch_frame 10000)
+    printf '%-6s %6s   (~%s us on a 72 MHz Cortex-M3 at 1.5 cycles per instruction)\n' "$w" "$n" \
+        "$(awk -v n="$n" 'BEGIN { printf "%.1f", n * 1.5 / 72 }')"
+done
+echo "(read = READ of 6 bytes, write = WRITE of goal + speed, sync = SYNC WRITE to 8 servos)"
+echo
+echo "== reply latency with return delay 0 (virtual time; the host build runs the"
+echo "   dispatch in zero virtual time, so this is scheduling latency)"
+"$bench" latency
+echo
+if [ -f build/stm32/servo-stub.elf ]; then
+    echo "== Cortex-M3 link stub (core + stub HAL), bytes"
+    arm-none-eabi-size build/stm32/servo-stub.elf
+    for fn in frame_rx_byte dispatch_frame; do
+        hex=$(arm-none-eabi-nm -S build/stm32/servo-stub.elf | awk -v f="$fn" '$4==f {print $2}')
+        [ -n "$hex" ] && echo "$fn: $((16#$hex)) bytes of Thumb-2 code"
+    done
+fi
