@@ -113,12 +113,20 @@ struct reg_desc {
 /* The table, indexed by address. */
 extern const struct reg_desc regs_table[REGS_SIZE];
 
-/* The control table of one servo. 2-byte aligned so that a 16-bit register at an even
- * address is one halfword store/load on the MCU. */
+/* The control table of one servo, in wire order (little-endian, as both the MCU and the
+ * host are). Every 16-bit register sits at an even address, so it is one element of
+ * half[]: one halfword load or store, never torn between its two bytes. */
 struct regs {
-    uint8_t mem[REGS_SIZE] __attribute__((aligned(2)));
+    union {
+        uint8_t mem[REGS_SIZE];
+        uint16_t half[REGS_SIZE / 2u];
+    };
     const struct board *board;
 };
+
+#if __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
+#error "the control table is kept in wire order: little-endian targets only"
+#endif
 
 /* True if a register starts at addr and exists on this board's variant. */
 bool regs_applicable(const struct board *b, uint8_t addr);

@@ -130,14 +130,14 @@ uint16_t regs_default(const struct board *b, uint8_t addr)
 uint16_t regs_get(const struct regs *r, uint8_t addr)
 {
     if (regs_table[addr].size == 2)
-        return *(const uint16_t *)(const void *)&r->mem[addr]; /* one aligned load */
+        return r->half[addr >> 1]; /* one aligned load */
     return r->mem[addr];
 }
 
 void regs_set(struct regs *r, uint8_t addr, uint16_t value)
 {
     if (regs_table[addr].size == 2)
-        *(uint16_t *)(void *)&r->mem[addr] = value; /* one aligned store: never torn */
+        r->half[addr >> 1] = value; /* one aligned store: never torn */
     else
         r->mem[addr] = (uint8_t)value;
 }
