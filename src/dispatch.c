@@ -102,11 +102,11 @@ static uint8_t do_sync_write(struct servo *s, const uint8_t *p, uint8_t n)
 {
     if (n < 2u || p[1] == 0u)
         return ERR_INSTRUCTION;
-    uint8_t stride = (uint8_t)(p[1] + 1u);
-    uint8_t body = (uint8_t)(n - 2u);
+    uint16_t stride = (uint16_t)(p[1] + 1u); /* L = 255 must not wrap to a stride of 0 */
+    uint16_t body = (uint16_t)(n - 2u);
     if (body == 0u || body % stride != 0u)
         return ERR_INSTRUCTION;
-    for (uint8_t i = 0; i < body; i = (uint8_t)(i + stride))
+    for (uint16_t i = 0; i < body; i = (uint16_t)(i + stride))
         if (p[2u + i] == s->link.id)
             return dispatch_write(s, p[0], &p[3u + i], p[1]);
     return 0;
