@@ -5,11 +5,13 @@
  * Interrupt side: frame_rx_byte() only. Main-loop side: everything else;
  * frame_rx_set_gap() and frame_rx_idle() must be called with the receive interrupt masked.
  *
- * Resynchronisation: every `D5 5D` seen inside a frame may start another frame (the
- * "shadow"). If the frame in progress turns out bad (checksum, invalid ID or length, or
- * an inter-byte gap), the shadow takes over, so a lost byte costs at most the one packet
- * it was in, even with packets sent back to back. A shadow that completes with a good
- * checksum inside a frame that later proves bad is delivered after it. */
+ * Resynchronisation: every `D5 5D` seen inside a frame may start another candidate
+ * frame (a "shadow"; one runs at a time). If the frame in progress turns out bad
+ * (checksum, invalid ID or length, or an inter-byte gap), the shadows that completed with
+ * a good checksum inside it are delivered after it, in order, and a running shadow takes
+ * over; so a lost byte costs only the packet it was in, even when its stated length
+ * swallows several packets sent back to back. If the frame in progress is good, the
+ * shadows inside it were its payload and are dropped. */
 #ifndef FRAME_RX_H
 #define FRAME_RX_H
 
@@ -49,18 +51,22 @@ struct frame_rx {
     struct frame_parser main, shadow;
     uint8_t spare[FRAME_SLOTS]; /* slots the ISR dropped, reused before free_ring */
     uint8_t spare_count;
-    uint8_t in_frame;     /* 1 while main is a frame in progress */
-    uint8_t shadow_state; /* 0 none, 1 in progress, 2 complete and waiting */
-    uint8_t prev;         /* previous byte, for spotting D5 5D */
-    uint32_t last_us;     /* arrival of the previous byte */
-    uint32_t gap_us;      /* inter-byte time-out; main loop sets it, irq masked */
-    uint32_t overruns;    /* frames lost because every slot was in use */
+    uint8_t waiting[FRAME_SLOTS]; /* complete good shadows, oldest first */
+    uint8_t waiting_count;
+    uint8_t in_frame;       /* 1 while main is a frame in progress */
+    uint8_t shadow_running; /* 1 while shadow is a frame in progress */
+    uint8_t prev;           /* previous byte, for spotting D5 5D */
+    uint32_t last_us;       /* arrival (end) of the previous byte */
+    uint32_t gap_us;        /* §1 idle-line time-out; main loop sets it, irq masked */
+    uint32_t byte_us;       /* one byte-time: arrivals are byte ends, gaps are idle line */
+    uint32_t overruns;      /* frames lost because every slot was in use */
 };
 
 /* Empty receiver with the time-out for the given baud rate. */
 void frame_rx_init(struct frame_rx *rx, uint32_t baud);
 
-/* Inter-byte time-out of §1: 2 ms or 20 byte-times, whichever is longer. */
+/* Inter-byte time-out of §1: 2 ms or 20 byte-times, whichever is longer. It is idle
+ * line: from the end of one byte to the start of the next. */
 uint32_t frame_rx_gap_us(uint32_t baud);
 
 /* ISR: one received byte that arrived at now_us. O(1), no loops. */
@@ -71,8 +77,8 @@ void frame_rx_byte(struct frame_rx *rx, uint8_t byte, uint32_t now_us);
  * receiver is idle, i.e. not in the middle of a frame. A reply may only start then. */
 bool frame_rx_idle(struct frame_rx *rx, uint32_t now_us);
 
-/* Main loop, irq masked: change the time-out after a baud change. */
-void frame_rx_set_gap(struct frame_rx *rx, uint32_t gap_us);
+/* Main loop, irq masked: the baud rate changed; so do the time-outs. */
+void frame_rx_set_baud(struct frame_rx *rx, uint32_t baud);
 
 /* Main loop: the oldest published frame, or 0. Stays valid until frame_rx_release(). */
 const struct frame *frame_rx_peek(struct frame_rx *rx);

@@ -7,7 +7,6 @@
 #define MASK (FRAME_SLOTS - 1u)
 #define NO_SLOT 0xFFu
 
-enum { SHADOW_NONE, SHADOW_RUNNING, SHADOW_WAITING };
 enum { STEP_MORE, STEP_DONE, STEP_INVALID };
 
 _Static_assert((FRAME_SLOTS & MASK) == 0, "FRAME_SLOTS must be a power of two");
@@ -30,7 +29,14 @@ void frame_rx_init(struct frame_rx *rx, uint32_t baud)
     for (uint8_t i = 0; i < FRAME_SLOTS; i++)
         rx->free_ring[i] = i;
     rx->free_head = FRAME_SLOTS;
-    rx->gap_us = frame_rx_gap_us(baud);
+    frame_rx_set_baud(rx, baud);
+}
+
+/* ISR and main loop: has the line been idle longer than the time-out before a byte
+ * that ended (or a moment) at now_us? */
+static bool gap_passed(const struct frame_rx *rx, uint32_t now_us)
+{
+    return now_us - rx->last_us > rx->gap_us + rx->byte_us;
 }
 
 /* ISR: a slot for a new candidate frame, or NO_SLOT when all are in use. */
@@ -90,35 +96,44 @@ static uint8_t parser_step(struct frame_rx *rx, struct frame_parser *p, uint8_t 
     return STEP_DONE;
 }
 
-/* ISR: the frame in progress is over (bad or timed out); a waiting shadow is delivered,
- * a running one becomes the frame in progress. */
-static void main_failed(struct frame_rx *rx)
+/* ISR: drop every shadow (they were the payload of a good frame). */
+static void shadows_drop(struct frame_rx *rx)
 {
-    if (rx->shadow_state == SHADOW_RUNNING) {
-        rx->main = rx->shadow;
-    } else {
-        if (rx->shadow_state == SHADOW_WAITING)
-            slot_publish(rx, rx->shadow.slot);
-        rx->in_frame = 0;
-    }
-    rx->shadow_state = SHADOW_NONE;
+    while (rx->waiting_count)
+        slot_drop(rx, rx->waiting[--rx->waiting_count]);
+    if (rx->shadow_running)
+        slot_drop(rx, rx->shadow.slot);
+    rx->shadow_running = 0;
 }
 
-/* ISR: an inter-byte gap ends everything in progress. */
+/* ISR: the frame in progress is over and was bad: the good frames found inside it are
+ * delivered, a running shadow becomes the frame in progress. */
+static void main_failed(struct frame_rx *rx)
+{
+    for (uint8_t i = 0; i < rx->waiting_count; i++)
+        slot_publish(rx, rx->waiting[i]);
+    rx->waiting_count = 0;
+    if (rx->shadow_running)
+        rx->main = rx->shadow;
+    else
+        rx->in_frame = 0;
+    rx->shadow_running = 0;
+}
+
+/* ISR and main loop: an inter-byte gap ends everything in progress. */
 static void abandon(struct frame_rx *rx)
 {
     slot_drop(rx, rx->main.slot);
-    if (rx->shadow_state == SHADOW_RUNNING) {
+    if (rx->shadow_running)
         slot_drop(rx, rx->shadow.slot);
-        rx->shadow_state = SHADOW_NONE;
-    }
+    rx->shadow_running = 0;
     main_failed(rx);
 }
 
 void frame_rx_byte(struct frame_rx *rx, uint8_t b, uint32_t now_us)
 {
     uint8_t prev = rx->prev;
-    if (now_us - rx->last_us > rx->gap_us) {
+    if (gap_passed(rx, now_us)) {
         if (rx->in_frame)
             abandon(rx);
         prev = 0; /* a header cannot straddle a gap */
@@ -140,19 +155,20 @@ void frame_rx_byte(struct frame_rx *rx, uint8_t b, uint32_t now_us)
         return;
     }
 
-    if (rx->shadow_state == SHADOW_RUNNING) {
+    if (rx->shadow_running) {
         uint8_t r = parser_step(rx, &rx->shadow, b, now_us);
         if (r == STEP_DONE && rx->slot[rx->shadow.slot].status == FRAME_OK) {
-            rx->shadow_state = SHADOW_WAITING;
+            rx->waiting[rx->waiting_count++] = rx->shadow.slot;
+            rx->shadow_running = 0;
         } else if (r != STEP_MORE) {
             slot_drop(rx, rx->shadow.slot); /* noise inside the frame in progress */
-            rx->shadow_state = SHADOW_NONE;
+            rx->shadow_running = 0;
         }
-    } else if (rx->shadow_state == SHADOW_NONE && header) {
+    } else if (header) {
         uint8_t s = slot_take(rx);
         if (s != NO_SLOT) {
             parser_start(&rx->shadow, s);
-            rx->shadow_state = SHADOW_RUNNING;
+            rx->shadow_running = 1;
         }
     }
 
@@ -165,10 +181,7 @@ void frame_rx_byte(struct frame_rx *rx, uint8_t b, uint32_t now_us)
     else
         slot_drop(rx, rx->main.slot);
     if (good) {
-        /* A good frame: any header seen inside it was its payload. */
-        if (rx->shadow_state != SHADOW_NONE)
-            slot_drop(rx, rx->shadow.slot);
-        rx->shadow_state = SHADOW_NONE;
+        shadows_drop(rx); /* any header seen inside a good frame was its payload */
         rx->in_frame = 0;
         return;
     }
@@ -177,16 +190,17 @@ void frame_rx_byte(struct frame_rx *rx, uint8_t b, uint32_t now_us)
 
 bool frame_rx_idle(struct frame_rx *rx, uint32_t now_us)
 {
-    if (rx->in_frame && now_us - rx->last_us > rx->gap_us) {
+    if (rx->in_frame && gap_passed(rx, now_us)) {
         abandon(rx);
         rx->prev = 0;
     }
     return !rx->in_frame;
 }
 
-void frame_rx_set_gap(struct frame_rx *rx, uint32_t gap_us)
+void frame_rx_set_baud(struct frame_rx *rx, uint32_t baud)
 {
-    rx->gap_us = gap_us;
+    rx->gap_us = frame_rx_gap_us(baud);
+    rx->byte_us = (10u * 1000000u + baud - 1u) / baud;
 }
 
 const struct frame *frame_rx_peek(struct frame_rx *rx)

@@ -32,7 +32,7 @@ void link_latch(struct servo *s)
         l->baud = baud;
         hal_uart_set_baud(s->hal, baud);
         uint32_t irq = hal_irq_save(s->hal);
-        frame_rx_set_gap(&s->rx, frame_rx_gap_us(baud));
+        frame_rx_set_baud(&s->rx, baud);
         hal_irq_restore(s->hal, irq);
     }
 }
