@@ -6,6 +6,9 @@ if(SERVO_SANITIZE)
     add_link_options(-fsanitize=address,undefined)
 endif()
 
+foreach(part bus motion)
+    target_compile_definitions(servo_${part} PUBLIC REGS_WITH_TEXT=1)
+endforeach()
 target_compile_definitions(servo_core PUBLIC REGS_WITH_TEXT=1)
 
 add_library(hal_host STATIC hal/host/hal_host.c)

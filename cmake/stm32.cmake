@@ -2,7 +2,9 @@
 # port, startup and drivers come with the STM32 issue). Floating point is banned from
 # the core: -mgeneral-regs-only makes any float arithmetic a compile error, and the link
 # check below fails the build if a soft-float helper sneaks into the image.
-target_compile_options(servo_core PRIVATE -mgeneral-regs-only)
+foreach(part bus motion)
+    target_compile_options(servo_${part} PRIVATE -mgeneral-regs-only)
+endforeach()
 
 add_executable(servo-stub.elf hal/stm32f1/stub.c)
 target_link_libraries(servo-stub.elf PRIVATE servo_core)
