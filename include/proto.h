@@ -40,9 +40,10 @@
 /* Plain 8-bit sum of n bytes (§2: not inverted). */
 uint8_t proto_sum(const uint8_t *p, uint16_t n);
 
-/* Write a status packet `D5 5D id LEN err data... CHK` into out (PROTO_STATUS_MAX bytes);
- * returns its length. */
-uint16_t proto_build_status(uint8_t *out, uint8_t id, uint8_t err, const uint8_t *data,
+/* Write `D5 5D id LEN first data... CHK` into out (n + 6 bytes, n <= 253) and return its
+ * length. Instruction packets (first = INS) and status packets (first = ERR) share this
+ * shape (§2, §3). */
+uint16_t proto_build_packet(uint8_t *out, uint8_t id, uint8_t first, const uint8_t *data,
                             uint8_t n);
 
 #endif

@@ -41,7 +41,7 @@ void link_answer(struct servo *s, uint8_t id, uint8_t err, const uint8_t *data, 
                  uint32_t at_us)
 {
     struct link *l = &s->link;
-    l->tx_len = proto_build_status(l->tx, id, err, data, n);
+    l->tx_len = proto_build_packet(l->tx, id, err, data, n);
     l->due_us = at_us;
     l->state = LINK_WAITING;
 }

@@ -11,14 +11,14 @@ uint8_t proto_sum(const uint8_t *p, uint16_t n)
     return sum;
 }
 
-uint16_t proto_build_status(uint8_t *out, uint8_t id, uint8_t err, const uint8_t *data,
+uint16_t proto_build_packet(uint8_t *out, uint8_t id, uint8_t first, const uint8_t *data,
                             uint8_t n)
 {
     out[0] = PROTO_HEADER0;
     out[1] = PROTO_HEADER1;
     out[2] = id;
     out[3] = (uint8_t)(n + 2u);
-    out[4] = err;
+    out[4] = first;
     if (n)
         memcpy(&out[5], data, n);
     out[5u + n] = proto_sum(&out[2], (uint16_t)(n + 3u));

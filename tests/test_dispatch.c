@@ -141,15 +141,7 @@ static struct answer xfer(const uint8_t *p, size_t n)
 static struct answer cmd(uint8_t id, uint8_t ins, const uint8_t *params, size_t n)
 {
     uint8_t p[262];
-    p[0] = 0xD5;
-    p[1] = 0x5D;
-    p[2] = id;
-    p[3] = (uint8_t)(n + 2u);
-    p[4] = ins;
-    if (n)
-        memcpy(&p[5], params, n);
-    p[5u + n] = proto_sum(&p[2], (uint16_t)(n + 3u));
-    return xfer(p, n + 6u);
+    return xfer(p, proto_build_packet(p, id, ins, params, (uint8_t)n));
 }
 
 static void assert_answer(struct answer a, const uint8_t *want, size_t n)

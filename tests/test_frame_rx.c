@@ -74,15 +74,7 @@ static void quiet(void)
 /* A well-formed packet D5 5D id LEN ins params CHK; returns its length. */
 static size_t mk(uint8_t *out, uint8_t id, uint8_t ins, const uint8_t *p, size_t n)
 {
-    out[0] = PROTO_HEADER0;
-    out[1] = PROTO_HEADER1;
-    out[2] = id;
-    out[3] = (uint8_t)(n + 2u);
-    out[4] = ins;
-    if (n)
-        memcpy(&out[5], p, n);
-    out[5 + n] = proto_sum(&out[2], (uint16_t)(n + 3u));
-    return n + 6u;
+    return proto_build_packet(out, id, ins, p, (uint8_t)n);
 }
 
 /* Does frame f carry exactly the packet pkt (header included) with status st? */

@@ -53,15 +53,7 @@ static uint32_t host_cmd(uint8_t id, uint8_t ins, const uint8_t *params, uint8_t
                          uint32_t baud)
 {
     uint8_t p[64];
-    p[0] = 0xD5;
-    p[1] = 0x5D;
-    p[2] = id;
-    p[3] = (uint8_t)(n + 2u);
-    p[4] = ins;
-    if (n)
-        memcpy(&p[5], params, n);
-    p[5u + n] = proto_sum(&p[2], (uint16_t)(n + 3u));
-    return host_send(p, n + 6u, baud);
+    return host_send(p, proto_build_packet(p, id, ins, params, n), baud);
 }
 
 static void assert_sent(uint32_t first, const uint8_t *want, size_t n, uint32_t baud)

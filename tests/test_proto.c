@@ -38,7 +38,7 @@ static void expect_status(uint8_t id, uint8_t err, const uint8_t *data, uint8_t 
 {
     uint8_t out[PROTO_STATUS_MAX + 8];
     memset(out, 0xA5, sizeof out);
-    uint16_t len = proto_build_status(out, id, err, data, n);
+    uint16_t len = proto_build_packet(out, id, err, data, n);
     assert_int_equal(len, want_len);
     assert_memory_equal(out, want, want_len);
     for (size_t i = want_len; i < sizeof out; i++)
@@ -111,7 +111,7 @@ static void built_checksum_verifies(void **state)
         uint8_t data[50];
         for (uint8_t i = 0; i < n; i++)
             data[i] = (uint8_t)(0xF0u + i);
-        uint16_t len = proto_build_status(out, 0xAB, 0x5A, data, n);
+        uint16_t len = proto_build_packet(out, 0xAB, 0x5A, data, n);
         assert_int_equal(len, n + 6u);
         assert_int_equal(out[3], n + 2u);
         assert_int_equal(out[len - 1u], proto_sum(&out[2], (uint16_t)(len - 3u)));

@@ -19,19 +19,6 @@
 #include "servo.h"
 #include "vbus.h"
 
-/* Encode an instruction packet; returns its length. */
-static uint16_t packet(uint8_t *out, uint8_t id, uint8_t ins, const uint8_t *p, uint8_t n)
-{
-    out[0] = PROTO_HEADER0;
-    out[1] = PROTO_HEADER1;
-    out[2] = id;
-    out[3] = (uint8_t)(n + 2u);
-    out[4] = ins;
-    memcpy(&out[5], p, n);
-    out[5u + n] = proto_sum(&out[2], (uint16_t)(n + 3u));
-    return (uint16_t)(n + 6u);
-}
-
 static const uint8_t read_params[] = {REG_PRESENT_SPEED, 6};
 static const uint8_t write_params[] = {REG_GOAL_POSITION, 0x2C, 0x01, 0x64, 0x00};
 static const uint8_t sync_params[] = {REG_MOVING_SPEED, 2, 1, 0x64, 0, 2, 0x64, 0, 3, 0x64, 0,
@@ -43,11 +30,11 @@ static int bench_rx(long n)
     frame_rx_init(&rx, 1000000);
     uint8_t stream[256];
     uint16_t len = 0;
-    len = (uint16_t)(len + packet(&stream[len], 1, INS_READ, read_params, sizeof read_params));
-    len = (uint16_t)(len + packet(&stream[len], 1, INS_WRITE, write_params, sizeof write_params));
-    len = (uint16_t)(len + packet(&stream[len], PROTO_ID_BROADCAST, INS_SYNC_WRITE, sync_params,
+    len = (uint16_t)(len + proto_build_packet(&stream[len], 1, INS_READ, read_params, sizeof read_params));
+    len = (uint16_t)(len + proto_build_packet(&stream[len], 1, INS_WRITE, write_params, sizeof write_params));
+    len = (uint16_t)(len + proto_build_packet(&stream[len], PROTO_ID_BROADCAST, INS_SYNC_WRITE, sync_params,
                                   sizeof sync_params));
-    len = (uint16_t)(len + packet(&stream[len], 1, INS_PING, 0, 0));
+    len = (uint16_t)(len + proto_build_packet(&stream[len], 1, INS_PING, 0, 0));
     uint32_t t = 0, frames = 0;
     for (long i = 0; i < n; i++) {
         frame_rx_byte(&rx, stream[i % len], t += 10);
@@ -69,11 +56,11 @@ static int bench_dispatch(const char *what, long n)
     uint8_t raw[300];
     uint16_t len;
     if (strcmp(what, "read") == 0)
-        len = packet(raw, 1, INS_READ, read_params, sizeof read_params);
+        len = proto_build_packet(raw, 1, INS_READ, read_params, sizeof read_params);
     else if (strcmp(what, "write") == 0)
-        len = packet(raw, 1, INS_WRITE, write_params, sizeof write_params);
+        len = proto_build_packet(raw, 1, INS_WRITE, write_params, sizeof write_params);
     else
-        len = packet(raw, PROTO_ID_BROADCAST, INS_SYNC_WRITE, sync_params, sizeof sync_params);
+        len = proto_build_packet(raw, PROTO_ID_BROADCAST, INS_SYNC_WRITE, sync_params, sizeof sync_params);
     static struct frame f;
     memcpy(f.buf, &raw[2], (size_t)(len - 2u));
     f.len = (uint16_t)(len - 2u);
@@ -102,9 +89,9 @@ static int bench_latency(void)
         uint8_t raw[64];
         const char *names[] = {"PING", "READ 6", "WRITE 4"};
         for (int w = 0; w < 3; w++) {
-            uint16_t len = w == 0   ? packet(raw, 1, INS_PING, 0, 0)
-                           : w == 1 ? packet(raw, 1, INS_READ, read_params, sizeof read_params)
-                                    : packet(raw, 1, INS_WRITE, write_params,
+            uint16_t len = w == 0   ? proto_build_packet(raw, 1, INS_PING, 0, 0)
+                           : w == 1 ? proto_build_packet(raw, 1, INS_READ, read_params, sizeof read_params)
+                                    : proto_build_packet(raw, 1, INS_WRITE, write_params,
                                              sizeof write_params);
             vbus_host_send(&b, raw, len);
             vbus_run_until(&b, b.now_us + 20000u);
