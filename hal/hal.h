@@ -36,4 +36,21 @@ bool hal_uart_tx_busy(struct hal *h);
 uint32_t hal_irq_save(struct hal *h);
 void hal_irq_restore(struct hal *h, uint32_t state);
 
+/* Flash of the emulated EEPROM: HAL_FLASH_PAGES pages of HAL_FLASH_PAGE_BYTES that the
+ * persistent store owns (STM32F1: 1 KiB pages at the end of the application's flash).
+ * Erased flash reads 0xFF; programming only clears bits, one aligned half-word at a time.
+ * Program and erase may stall the CPU (tens of ms for an erase); main loop only.
+ * Both return false if the operation failed (the store then treats the page as bad). */
+#define HAL_FLASH_PAGE_BYTES 1024u
+#define HAL_FLASH_PAGES 4u
+
+/* Memory-mapped, read-only view of page p. Any context. */
+const uint8_t *hal_flash_page(struct hal *h, uint8_t p);
+
+/* Erase page p (every byte 0xFF). */
+bool hal_flash_erase(struct hal *h, uint8_t p);
+
+/* Program the half-word at byte offset off (even) of page p; the half-word was erased. */
+bool hal_flash_program(struct hal *h, uint8_t p, uint16_t off, uint16_t value);
+
 #endif

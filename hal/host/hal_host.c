@@ -7,6 +7,15 @@ void hal_host_init(struct hal *h)
 {
     memset(h, 0, sizeof *h);
     h->baud = 9600;
+    flash_sim_init(&h->flash);
+}
+
+void hal_host_reboot(struct hal *h)
+{
+    h->baud = 9600;
+    h->tx_active = false;
+    h->irq_depth = 0;
+    flash_sim_power_on(&h->flash);
 }
 
 uint32_t hal_host_byte_start(uint32_t t0, uint32_t baud, uint32_t i)
@@ -65,4 +74,19 @@ uint32_t hal_irq_save(struct hal *h)
 void hal_irq_restore(struct hal *h, uint32_t state)
 {
     h->irq_depth = (int32_t)state;
+}
+
+const uint8_t *hal_flash_page(struct hal *h, uint8_t p)
+{
+    return flash_sim_page(&h->flash, p);
+}
+
+bool hal_flash_erase(struct hal *h, uint8_t p)
+{
+    return flash_sim_erase(&h->flash, p);
+}
+
+bool hal_flash_program(struct hal *h, uint8_t p, uint16_t off, uint16_t value)
+{
+    return flash_sim_program(&h->flash, p, off, value);
 }

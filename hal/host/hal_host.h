@@ -6,6 +6,7 @@
 #include <stdbool.h>
 #include <stdint.h>
 
+#include "flash_sim.h"
 #include "hal.h"
 
 #define HAL_HOST_TX_LOG 8192u
@@ -26,10 +27,11 @@ struct hal {
     uint32_t sends;     /* hal_uart_send() calls */
     uint32_t baud_sets; /* hal_uart_set_baud() calls */
     uint32_t log_len;   /* bytes logged; the log keeps the last HAL_HOST_TX_LOG */
+    struct flash_sim flash; /* the store's flash; survives a simulated reboot */
     struct hal_tx_byte log[HAL_HOST_TX_LOG];
 };
 
-/* Clock at 0, UART idle at 9600, empty log. */
+/* Clock at 0, UART idle at 9600, empty log, blank flash. */
 void hal_host_init(struct hal *h);
 
 /* The i-th byte ever sent (i < log_len, and not older than HAL_HOST_TX_LOG bytes). */
@@ -38,5 +40,8 @@ const struct hal_tx_byte *hal_host_tx(const struct hal *h, uint32_t i);
 /* Start and end of byte i of a transmission that began at t0 (10 bits per byte). */
 uint32_t hal_host_byte_start(uint32_t t0, uint32_t baud, uint32_t i);
 uint32_t hal_host_byte_end(uint32_t t0, uint32_t baud, uint32_t i);
+
+/* Power cycle: the UART and clock state go, the flash stays (a cut is cleared). */
+void hal_host_reboot(struct hal *h);
 
 #endif
