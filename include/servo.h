@@ -9,6 +9,7 @@
 #include "frame_rx.h"
 #include "link.h"
 #include "regs.h"
+#include "store.h"
 #include "traj.h"
 
 struct hal;
@@ -28,11 +29,12 @@ struct servo {
     struct link link;
     struct held_write held;
     struct traj traj;
+    struct store store;
     uint8_t live_err; /* ERR bits 0-3 and 6, owned by the safety layer */
 };
 
-/* Power-up: factory table (until a persistent store provides the saved one), settings
- * in force, receiver empty, motor off. */
+/* Power-up: factory table with the stored EEPROM registers on top, settings in force,
+ * receiver empty, motor off. */
 void servo_init(struct servo *s, const struct board *b, struct hal *hal);
 
 /* Interrupt context: the UART received one byte. */

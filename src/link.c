@@ -16,7 +16,9 @@ uint32_t link_baud(const struct board *b, uint8_t code)
 
 uint32_t link_bytes_us(uint32_t baud, uint32_t n)
 {
-    return (uint32_t)(((uint64_t)n * 10u * 1000000u + baud - 1u) / baud);
+    /* 32-bit only (no 64-bit division in the image); exact for n < 2000 bytes. */
+    uint32_t bits_us = 10u * 1000000u;
+    return n * (bits_us / baud) + (n * (bits_us % baud) + baud - 1u) / baud;
 }
 
 void link_latch(struct servo *s)

@@ -12,6 +12,7 @@ void servo_init(struct servo *s, const struct board *b, struct hal *hal)
     s->hal = hal;
     s->board = b;
     regs_init(&s->regs, b);
+    store_load(&s->store, hal, &s->regs, hal_clock_us(hal));
     frame_rx_init(&s->rx, link_baud(b, s->regs.mem[REG_BAUD_RATE]));
     link_latch(s);
     motion_init(s); /* motor off; the goal starts at the present position (rule 1) */
@@ -28,13 +29,18 @@ void servo_poll(struct servo *s)
     uint32_t irq = hal_irq_save(s->hal);
     bool rx_idle = frame_rx_idle(&s->rx, now);
     hal_irq_restore(s->hal, irq);
-    if (!link_poll(s, now, rx_idle))
+    bool link_idle = link_poll(s, now, rx_idle);
+    /* Flash work (an erase stalls the CPU) only while nothing moves and the bus rests. */
+    store_poll(&s->store, &s->regs, now,
+               link_idle && rx_idle && s->link.state == LINK_IDLE && !s->regs.mem[REG_MOVING]);
+    if (!link_idle)
         return;
     const struct frame *f = frame_rx_peek(&s->rx);
     if (!f)
         return;
     dispatch_frame(s, f);
     frame_rx_release(&s->rx);
+    store_sync(&s->store, &s->regs, now); /* what the frame changed in EEPROM, at once */
     if (s->link.state == LINK_IDLE)
         link_latch(s); /* no answer: a new ID or baud applies at once */
 }

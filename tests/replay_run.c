@@ -207,6 +207,11 @@ static void run_line(struct vbus *b, char **tok, int ntok)
         vbus_run_until(b, b->now_us + (uint32_t)number(tok[0], 10));
     } else if (strcmp(cmd, "reg") == 0) {
         do_reg(b, tok, ntok);
+    } else if (strcmp(cmd, "power-cycle") == 0 && ntok == 1) {
+        struct vbus_node *n = node_by_name(b, tok[0]);
+        hal_host_reboot(&n->hal); /* the flash stays */
+        n->hal.now_us = b->now_us;
+        servo_init(&n->servo, n->servo.board, &n->hal);
     } else if (strcmp(cmd, "fault") == 0 && ntok == 2) {
         node_by_name(b, tok[0])->servo.live_err = (uint8_t)number(tok[1], 16);
     } else if (strcmp(cmd, "collisions") == 0 && ntok == 1) {

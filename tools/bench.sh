@@ -40,3 +40,5 @@ if [ -f build/stm32/servo-stub.elf ]; then
         [ -n "$hex" ] && echo "$fn: $((16#$hex)) bytes of Thumb-2 code"
     done
 fi
+echo
+"$build/tools/bench_store"

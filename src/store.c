@@ -1,0 +1,312 @@
+/* store.c - power-loss-safe emulated EEPROM on flash pages (layout in store.h). */
+#include <string.h>
+
+#include "hal.h"
+#include "store.h"
+
+#define MAGIC 0x5E3Eu
+#define OFF_SEQ 2u
+#define OFF_CRC 6u
+#define OFF_COMMIT 10u
+#define COMMITTED 0x0000u
+#define ERASED 0xFFFFu
+
+/* Record tag: a fixed pattern in bits 0-5 tells a record from noise. */
+#define TAG_PATTERN 0x2Au
+#define TAG_FIRST 0x80u /* first record of a group */
+#define TAG_LAST 0x40u  /* last record of a group */
+
+static uint16_t half_at(const uint8_t *page, uint16_t off)
+{
+    return (uint16_t)(page[off] | (page[off + 1u] << 8));
+}
+
+static uint32_t crc32_update(uint32_t crc, uint32_t v, uint8_t bytes)
+{
+    for (uint8_t i = 0; i < bytes; i++) {
+        crc ^= (v >> (8u * i)) & 0xFFu;
+        for (uint8_t k = 0; k < 8u; k++)
+            crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
+    }
+    return crc;
+}
+
+static uint32_t header_crc(uint32_t seq)
+{
+    return ~crc32_update(crc32_update(0xFFFFFFFFu, MAGIC, 2), seq, 4);
+}
+
+/* Record check: CRC-16/CCITT of tag|addr, value and the page's sequence number, with
+ * 0xFFFF (an unwritten half-word) mapped away so it never matches. */
+static uint16_t record_check(uint16_t head, uint16_t value, uint32_t seq)
+{
+    uint16_t crc = 0xFFFFu;
+    uint32_t words[2] = {(uint32_t)head | ((uint32_t)value << 16), seq};
+    for (uint8_t w = 0; w < 2u; w++)
+        for (uint8_t i = 0; i < 4u; i++) {
+            crc ^= (uint16_t)(((words[w] >> (8u * i)) & 0xFFu) << 8);
+            for (uint8_t k = 0; k < 8u; k++)
+                crc = (uint16_t)(((uint32_t)crc << 1) ^ ((crc & 0x8000u) ? 0x1021u : 0u));
+        }
+    return crc == ERASED ? 0x7FFFu : crc;
+}
+
+/* The registers the store keeps: writable EEPROM registers of this variant. (Model
+ * number and firmware version come from the build, not from flash.) */
+static bool stored(const struct board *b, uint8_t addr)
+{
+    return regs_applicable(b, addr) && regs_table[addr].area == REG_AREA_EE &&
+           (regs_table[addr].access & REG_ACCESS_W);
+}
+
+/* Does the page carry a valid header and a complete image? Then its sequence number. */
+static bool page_committed(const uint8_t *page, uint32_t *seq)
+{
+    uint32_t s = half_at(page, OFF_SEQ) | ((uint32_t)half_at(page, OFF_SEQ + 2u) << 16);
+    uint32_t crc = half_at(page, OFF_CRC) | ((uint32_t)half_at(page, OFF_CRC + 2u) << 16);
+    if (half_at(page, 0) != MAGIC || crc != header_crc(s) ||
+        half_at(page, OFF_COMMIT) != COMMITTED)
+        return false;
+    *seq = s;
+    return true;
+}
+
+static bool page_blank(const uint8_t *page)
+{
+    for (uint16_t i = 0; i < HAL_FLASH_PAGE_BYTES; i++)
+        if (page[i] != 0xFFu)
+            return false;
+    return true;
+}
+
+static bool slot_blank(const uint8_t *page, uint16_t off)
+{
+    return half_at(page, off) == ERASED && half_at(page, off + 2u) == ERASED &&
+           half_at(page, off + 4u) == ERASED;
+}
+
+/* Replay the records of the active page into saved[]: complete groups only, in order.
+ * Leaves st->next at the first blank slot. */
+static void replay(struct store *st, const struct board *b, const uint8_t *page)
+{
+    uint8_t group[REGS_SIZE];
+    bool in_group = false;
+    uint16_t off = STORE_HEADER_BYTES;
+    for (; off + STORE_RECORD_BYTES <= HAL_FLASH_PAGE_BYTES; off += STORE_RECORD_BYTES) {
+        if (slot_blank(page, off))
+            break;
+        uint16_t head = half_at(page, off), value = half_at(page, off + 2u);
+        uint8_t tag = (uint8_t)(head >> 8), addr = (uint8_t)head;
+        bool valid = half_at(page, off + 4u) == record_check(head, value, st->seq) &&
+                     (tag & 0x3Fu) == TAG_PATTERN && addr < REGS_SIZE && stored(b, addr);
+        if (!valid) {
+            in_group = false; /* a torn record ends the group it was in: dropped */
+            continue;
+        }
+        if (tag & TAG_FIRST) {
+            memcpy(group, st->saved, sizeof group);
+            in_group = true;
+        }
+        if (!in_group)
+            continue; /* the rest of a group whose start was lost */
+        if (regs_table[addr].size == 2u) {
+            group[addr] = (uint8_t)value;
+            group[addr + 1u] = (uint8_t)(value >> 8);
+        } else {
+            group[addr] = (uint8_t)value;
+        }
+        if (tag & TAG_LAST) {
+            memcpy(st->saved, group, sizeof group);
+            in_group = false;
+        }
+    }
+    st->next = off;
+}
+
+/* The page after the active one in rotation: where the next compaction goes. */
+static uint8_t spare_page(const struct store *st)
+{
+    return st->active == STORE_NO_PAGE ? 0u : (uint8_t)((st->active + 1u) % HAL_FLASH_PAGES);
+}
+
+void store_load(struct store *st, struct hal *hal, struct regs *r, uint32_t now_us)
+{
+    memset(st, 0, sizeof *st);
+    st->hal = hal;
+    st->active = STORE_NO_PAGE;
+    st->tokens = STORE_BURST;
+    st->refill_us = STORE_REFILL_US;
+    st->token_at = now_us;
+    memcpy(st->saved, r->mem, sizeof st->saved);
+    for (uint8_t p = 0; p < HAL_FLASH_PAGES; p++) {
+        uint32_t seq;
+        if (page_committed(hal_flash_page(hal, p), &seq) &&
+            (st->active == STORE_NO_PAGE || (int32_t)(seq - st->seq) > 0)) {
+            st->active = p;
+            st->seq = seq;
+        }
+    }
+    if (st->active != STORE_NO_PAGE)
+        replay(st, r->board, hal_flash_page(hal, st->active));
+    /* A stored value out of its register's range (a foreign or corrupt image) stays at
+     * the factory value; so do both limits if they would cross. */
+    for (uint8_t a = 0; a < REGS_SIZE; a++) {
+        if (!stored(r->board, a))
+            continue;
+        uint8_t n = regs_table[a].size;
+        uint16_t v = n == 2u ? (uint16_t)(st->saved[a] | (st->saved[a + 1u] << 8)) : st->saved[a];
+        if (v >= regs_table[a].min && v <= regs_table[a].max)
+            regs_set(r, a, v);
+    }
+    if (regs_get(r, REG_CW_LIMIT) > regs_get(r, REG_CCW_LIMIT)) {
+        regs_set(r, REG_CW_LIMIT, regs_default(r->board, REG_CW_LIMIT));
+        regs_set(r, REG_CCW_LIMIT, regs_default(r->board, REG_CCW_LIMIT));
+    }
+    memcpy(st->saved, r->mem, sizeof st->saved);
+    st->spare_blank = page_blank(hal_flash_page(hal, spare_page(st)));
+}
+
+static bool program(struct store *st, uint8_t p, uint16_t off, uint16_t v)
+{
+    if (hal_flash_program(st->hal, p, off, v))
+        return true;
+    st->faults++;
+    return false;
+}
+
+static bool write_record(struct store *st, uint8_t p, uint16_t off, uint8_t tag, uint8_t addr,
+                         const uint8_t *mem, uint32_t seq)
+{
+    uint16_t head = (uint16_t)(((TAG_PATTERN | tag) << 8) | addr);
+    uint16_t value = regs_table[addr].size == 2u ? (uint16_t)(mem[addr] | (mem[addr + 1u] << 8))
+                                                 : mem[addr];
+    return program(st, p, off, head) && program(st, p, (uint16_t)(off + 2u), value) &&
+           program(st, p, (uint16_t)(off + 4u), record_check(head, value, seq));
+}
+
+/* Addresses of the registers in [from, REGS_SIZE) that the store keeps and that differ
+ * between a and b (or all of them when all is set): the next one, or REGS_SIZE. */
+static uint8_t next_reg(const struct board *b, const uint8_t *x, const uint8_t *y, uint8_t from,
+                        bool all)
+{
+    for (uint8_t a = from; a < REGS_SIZE; a++)
+        if (stored(b, a) && (all || memcmp(&x[a], &y[a], regs_table[a].size) != 0))
+            return a;
+    return REGS_SIZE;
+}
+
+/* Write the whole image to the next page in rotation; it takes over once committed. */
+static bool compact(struct store *st, const struct regs *r)
+{
+    uint8_t p = spare_page(st);
+    const uint8_t *page = hal_flash_page(st->hal, p);
+    if (!st->spare_blank || !page_blank(page)) {
+        if (!hal_flash_erase(st->hal, p) || !page_blank(page)) {
+            st->faults++;
+            st->spare_blank = 0;
+            return false;
+        }
+    }
+    st->spare_blank = 0;
+    uint32_t seq = st->seq + 1u, crc = header_crc(seq);
+    if (!program(st, p, 0, MAGIC) || !program(st, p, OFF_SEQ, (uint16_t)seq) ||
+        !program(st, p, OFF_SEQ + 2u, (uint16_t)(seq >> 16)) ||
+        !program(st, p, OFF_CRC, (uint16_t)crc) || !program(st, p, OFF_CRC + 2u, (uint16_t)(crc >> 16)))
+        return false;
+    uint16_t off = STORE_HEADER_BYTES;
+    uint8_t tag = TAG_FIRST;
+    for (uint8_t a = next_reg(r->board, r->mem, 0, 0, true); a < REGS_SIZE; off += STORE_RECORD_BYTES) {
+        uint8_t after = next_reg(r->board, r->mem, 0, (uint8_t)(a + regs_table[a].size), true);
+        if (!write_record(st, p, off, (uint8_t)(tag | (after == REGS_SIZE ? TAG_LAST : 0u)), a,
+                          r->mem, seq))
+            return false;
+        tag = 0;
+        a = after;
+    }
+    if (!program(st, p, OFF_COMMIT, COMMITTED)) /* the new page counts from here */
+        return false;
+    st->active = p;
+    st->seq = seq;
+    st->next = off;
+    return true;
+}
+
+/* Append the changed registers as one group, or compact if the page cannot hold it. */
+static bool commit(struct store *st, const struct regs *r)
+{
+    uint8_t count = 0;
+    for (uint8_t a = next_reg(r->board, r->mem, st->saved, 0, false); a < REGS_SIZE;
+         a = next_reg(r->board, r->mem, st->saved, (uint8_t)(a + regs_table[a].size), false))
+        count++;
+    if (count == 0u)
+        return true;
+    uint32_t room = (HAL_FLASH_PAGE_BYTES - st->next) / STORE_RECORD_BYTES;
+    if (st->active == STORE_NO_PAGE || count > room)
+        return compact(st, r);
+    uint8_t tag = TAG_FIRST;
+    for (uint8_t a = next_reg(r->board, r->mem, st->saved, 0, false); a < REGS_SIZE;) {
+        uint8_t after = next_reg(r->board, r->mem, st->saved, (uint8_t)(a + regs_table[a].size),
+                                 false);
+        bool ok = write_record(st, st->active, st->next,
+                               (uint8_t)(tag | (after == REGS_SIZE ? TAG_LAST : 0u)), a, r->mem,
+                               st->seq);
+        st->next = (uint16_t)(st->next + STORE_RECORD_BYTES); /* a torn slot is skipped */
+        if (!ok)
+            return false;
+        tag = 0;
+        a = after;
+    }
+    return true;
+}
+
+/* Rate limit (see docs/persistence.md): may a commit happen now? Tokens refill one per
+ * refill_us up to STORE_BURST. */
+static bool token_ready(struct store *st, uint32_t now_us)
+{
+    if (st->refill_us == 0u)
+        return true;
+    while (st->tokens < STORE_BURST && now_us - st->token_at >= st->refill_us) {
+        st->tokens++;
+        st->token_at += st->refill_us;
+    }
+    if (st->tokens == STORE_BURST)
+        st->token_at = now_us;
+    return st->tokens > 0u;
+}
+
+void store_sync(struct store *st, const struct regs *r, uint32_t now_us)
+{
+    if (!token_ready(st, now_us)) {
+        st->pending = 1; /* whether anything changed is looked at when a commit may run */
+        return;
+    }
+    if (next_reg(r->board, r->mem, st->saved, 0, false) == REGS_SIZE) {
+        st->pending = 0;
+        return; /* nothing changed: no flash write */
+    }
+    if (st->refill_us)
+        st->tokens--;
+    if (commit(st, r)) {
+        for (uint8_t a = 0; a < REGS_SIZE; a++)
+            if (stored(r->board, a))
+                st->saved[a] = r->mem[a];
+        st->pending = 0;
+    } else {
+        st->pending = 1; /* retried by store_poll, into a fresh page */
+        st->next = HAL_FLASH_PAGE_BYTES;
+    }
+}
+
+void store_poll(struct store *st, const struct regs *r, uint32_t now_us, bool idle)
+{
+    if (st->pending)
+        store_sync(st, r, now_us);
+    if (!st->spare_blank && idle) {
+        uint8_t p = spare_page(st);
+        const uint8_t *page = hal_flash_page(st->hal, p);
+        if (page_blank(page) || (hal_flash_erase(st->hal, p) && page_blank(page)))
+            st->spare_blank = 1;
+        else
+            st->faults++;
+    }
+}
