@@ -12,7 +12,8 @@
  * which counts once its commit mark is written; the old page stays valid until then.
  * Recovery at boot only reads. See docs/persistence.md for the argument.
  *
- * Main loop only. */
+ * Main loop only. The main loop syncs after every dispatched packet; any other code that
+ * changes an EEPROM register (homing, START/END) calls store_sync() itself. */
 #ifndef STORE_H
 #define STORE_H
 
