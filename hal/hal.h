@@ -53,4 +53,35 @@ bool hal_flash_erase(struct hal *h, uint8_t p);
 /* Program the half-word at byte offset off (even) of page p; the half-word was erased. */
 bool hal_flash_program(struct hal *h, uint8_t p, uint16_t off, uint16_t value);
 
+/* Motor, sensors and board outputs. Called from the control tick, which runs in the main
+ * loop (servo_poll), never from an interrupt.
+ * Drive: signed duty in per mille of the supply, +HAL_DUTY_MAX turns the output shaft
+ * in the positive direction of PROTOCOL.md §5.4; 0 lets the motor coast. */
+#define HAL_DUTY_MAX 1000
+
+/* Gate driver on (true) or off (torque off, lowest power: sleep and unload). */
+void hal_motor_enable(struct hal *h, bool on);
+
+/* H-bridge PWM duty, -HAL_DUTY_MAX..HAL_DUTY_MAX. */
+void hal_motor_drive(struct hal *h, int16_t duty);
+
+/* Output shaft position in board counts (struct board counts_per_rev per turn), counting
+ * up in the positive direction; a free-running 32-bit count that wraps. */
+int32_t hal_motor_position(struct hal *h);
+
+/* Motor current in mA (magnitude), supply voltage in mV, board temperature in 0.1 C. */
+uint16_t hal_motor_current_ma(struct hal *h);
+uint16_t hal_supply_mv(struct hal *h);
+int16_t hal_temperature_dc(struct hal *h);
+
+/* Photo switches, raw: bit 0 switch 1, bit 1 switch 2 (1 = light path interrupted). */
+uint8_t hal_photo_switches(struct hal *h);
+
+/* The 120 ohm RS485 terminator (register 20). */
+void hal_rs485_termination(struct hal *h, bool on);
+
+/* Independent watchdog: start once at boot (it cannot be stopped), feed regularly. */
+void hal_watchdog_start(struct hal *h);
+void hal_watchdog_feed(struct hal *h);
+
 #endif

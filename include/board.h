@@ -25,6 +25,7 @@ struct board {
     uint32_t default_baud;     /* what register 4 = 0 means */
     uint8_t return_delay;      /* register 5 default, x 500 us */
     uint8_t photo_switches;    /* 1 if the board has the two homing switches */
+    uint32_t counts_per_rev;   /* position sensor counts per output turn */
 };
 
 extern const struct board board_base, board_foot, board_arm, board_wrist, board_finger;

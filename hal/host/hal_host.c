@@ -8,6 +8,9 @@ void hal_host_init(struct hal *h)
     memset(h, 0, sizeof *h);
     h->baud = 9600;
     flash_sim_init(&h->flash);
+    motor_sim_init(&h->motor, HAL_HOST_COUNTS_PER_REV);
+    h->supply_mv = 12000;
+    h->temperature_dc = 250;
 }
 
 void hal_host_reboot(struct hal *h)
@@ -16,6 +19,11 @@ void hal_host_reboot(struct hal *h)
     h->tx_active = false;
     h->irq_depth = 0;
     flash_sim_power_on(&h->flash);
+    motor_sim_advance(&h->motor, h->now_us);
+    h->motor.enabled = false; /* a reset leaves the bridge off until the core says */
+    h->motor.duty = 0;
+    h->termination = false;
+    h->watchdog_started = false;
 }
 
 uint32_t hal_host_byte_start(uint32_t t0, uint32_t baud, uint32_t i)
@@ -89,4 +97,59 @@ bool hal_flash_erase(struct hal *h, uint8_t p)
 bool hal_flash_program(struct hal *h, uint8_t p, uint16_t off, uint16_t value)
 {
     return flash_sim_program(&h->flash, p, off, value);
+}
+
+void hal_motor_enable(struct hal *h, bool on)
+{
+    motor_sim_advance(&h->motor, h->now_us);
+    h->motor.enabled = on;
+}
+
+void hal_motor_drive(struct hal *h, int16_t duty)
+{
+    motor_sim_advance(&h->motor, h->now_us);
+    h->motor.duty = duty;
+}
+
+int32_t hal_motor_position(struct hal *h)
+{
+    motor_sim_advance(&h->motor, h->now_us);
+    return motor_sim_counts(&h->motor);
+}
+
+uint16_t hal_motor_current_ma(struct hal *h)
+{
+    motor_sim_advance(&h->motor, h->now_us);
+    double ma = h->motor.current * 1000.0;
+    return (uint16_t)(ma < 0 ? -ma : ma);
+}
+
+uint16_t hal_supply_mv(struct hal *h)
+{
+    return h->supply_mv;
+}
+
+int16_t hal_temperature_dc(struct hal *h)
+{
+    return h->temperature_dc;
+}
+
+uint8_t hal_photo_switches(struct hal *h)
+{
+    return h->photo;
+}
+
+void hal_rs485_termination(struct hal *h, bool on)
+{
+    h->termination = on;
+}
+
+void hal_watchdog_start(struct hal *h)
+{
+    h->watchdog_started = true;
+}
+
+void hal_watchdog_feed(struct hal *h)
+{
+    h->watchdog_feeds++;
 }

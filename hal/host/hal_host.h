@@ -8,8 +8,10 @@
 
 #include "flash_sim.h"
 #include "hal.h"
+#include "motor_sim.h"
 
 #define HAL_HOST_TX_LOG 8192u
+#define HAL_HOST_COUNTS_PER_REV 16384u /* matches every reference board */
 
 struct hal_tx_byte {
     uint32_t start_us; /* start bit begins */
@@ -28,6 +30,13 @@ struct hal {
     uint32_t baud_sets; /* hal_uart_set_baud() calls */
     uint32_t log_len;   /* bytes logged; the log keeps the last HAL_HOST_TX_LOG */
     struct flash_sim flash; /* the store's flash; survives a simulated reboot */
+    struct motor_sim motor; /* the plant: keeps turning across a reboot */
+    uint16_t supply_mv;     /* sensors, set by tests */
+    int16_t temperature_dc;
+    uint8_t photo;
+    bool termination;
+    bool watchdog_started;
+    uint32_t watchdog_feeds;
     struct hal_tx_byte log[HAL_HOST_TX_LOG];
 };
 

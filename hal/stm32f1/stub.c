@@ -35,6 +35,17 @@ const uint8_t *hal_flash_page(struct hal *h, uint8_t p)
 bool hal_flash_erase(struct hal *h, uint8_t p) { (void)h; (void)p; return false; }
 bool hal_flash_program(struct hal *h, uint8_t p, uint16_t off, uint16_t value) { (void)h; (void)p; (void)off; (void)value; return false; }
 
+void hal_motor_enable(struct hal *h, bool on) { (void)h; (void)on; }
+void hal_motor_drive(struct hal *h, int16_t duty) { (void)h; (void)duty; }
+int32_t hal_motor_position(struct hal *h) { (void)h; return 0; }
+uint16_t hal_motor_current_ma(struct hal *h) { (void)h; return 0; }
+uint16_t hal_supply_mv(struct hal *h) { (void)h; return 12000; }
+int16_t hal_temperature_dc(struct hal *h) { (void)h; return 250; }
+uint8_t hal_photo_switches(struct hal *h) { (void)h; return 0; }
+void hal_rs485_termination(struct hal *h, bool on) { (void)h; (void)on; }
+void hal_watchdog_start(struct hal *h) { (void)h; }
+void hal_watchdog_feed(struct hal *h) { (void)h; }
+
 int main(void);
 void stub_reset(void);
 
