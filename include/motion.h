@@ -7,7 +7,36 @@
 #include <stdbool.h>
 #include <stdint.h>
 
+#include "planner.h"
+
 struct servo;
+
+#define MOTION_TICK_US 1000u /* control tick: 1 kHz */
+
+enum motion_mode {
+    MOTION_OFF,   /* torque off (power-up, speed 0, sleep) */
+    MOTION_HOLD,  /* hold the reference position (after a move, brake) */
+    MOTION_MOVE,  /* trapezoidal move to target */
+    MOTION_SPEED, /* speed mode */
+    MOTION_TRAJ,  /* running the stored trajectory */
+};
+
+/* State of the motion layer of one servo. */
+struct motion {
+    struct plan plan;        /* reference (counts x 2^24) */
+    struct plan_limits lim;  /* of the running move */
+    int64_t target;          /* move target, counts x 2^24 */
+    int32_t speed_target;    /* speed mode velocity, counts/tick x 2^24 */
+    int64_t counts;          /* measured position, unwrapped */
+    int64_t zero;            /* counts at position 0 */
+    int32_t raw;             /* last raw sensor reading */
+    int32_t vel_q8;          /* measured velocity, counts/tick x 2^8, filtered */
+    uint32_t tick_us;        /* time of the last control tick */
+    int16_t duty;            /* last drive */
+    uint8_t mode;            /* enum motion_mode */
+    uint8_t traj_next;       /* trajectory: point being approached */
+    uint8_t traj_stop;       /* trajectory: last point before a reversal or the end */
+};
 
 /* CUSTOM MOVE (PROTOCOL.md §4.8), decoded. */
 struct custom_move {
@@ -41,5 +70,8 @@ uint8_t motion_custom_move(struct servo *s, const struct custom_move *m);
 
 /* RESET: stop everything and forget the homing reference. */
 void motion_reset(struct servo *s);
+
+/* Main loop: run the control ticks that are due at now_us (1 kHz). */
+void motion_poll(struct servo *s, uint32_t now_us);
 
 #endif

@@ -8,6 +8,7 @@
 #include "board.h"
 #include "frame_rx.h"
 #include "link.h"
+#include "motion.h"
 #include "regs.h"
 #include "store.h"
 #include "traj.h"
@@ -30,6 +31,7 @@ struct servo {
     struct held_write held;
     struct traj traj;
     struct store store;
+    struct motion motion;
     uint8_t live_err; /* ERR bits 0-3 and 6, owned by the safety layer */
 };
 

@@ -26,6 +26,7 @@ void servo_rx_isr(struct servo *s, uint8_t byte)
 void servo_poll(struct servo *s)
 {
     uint32_t now = hal_clock_us(s->hal);
+    motion_poll(s, now);
     uint32_t irq = hal_irq_save(s->hal);
     bool rx_idle = frame_rx_idle(&s->rx, now);
     hal_irq_restore(s->hal, irq);

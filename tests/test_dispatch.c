@@ -32,6 +32,12 @@ static struct {
     uint32_t reset_calls;
 } fake;
 
+void motion_poll(struct servo *s, uint32_t now_us)
+{
+    (void)s;
+    (void)now_us;
+}
+
 void motion_init(struct servo *s)
 {
     regs_set(&s->regs, REG_GOAL_POSITION, regs_present_position(&s->regs));

@@ -1,0 +1,419 @@
+/* motion.c - the motion layer (PROTOCOL.md §4.6-§4.8, §6): turns register writes and
+ * motion instructions into a planned reference, closes the position loop on the motor
+ * once per control tick, and keeps the present-state registers up to date.
+ *
+ * The three rules of §0: at power-up the motor is off and the goal equals the present
+ * position; a speed of 0 drops the drive to zero in the tick it arrives and the brake
+ * freezes the reference where the shaft is; releasing the brake or waking starts
+ * nothing. Everything runs in the main loop. */
+#include "hal.h"
+#include "motion.h"
+#include "proto.h"
+#include "servo.h"
+#include "store.h"
+
+#define MAX_SPEED_DPS 1080 /* what the reference may ask for, degrees/s at the output */
+#define TICKS_PER_S (1000000 / (int32_t)MOTION_TICK_US)
+
+/* Controller gains, duty per mille: feed-forward per count/tick of reference speed,
+ * friction feed-forward, proportional per count of position error, damping per
+ * count/tick of speed error. Tuned on the reference gearmotor (hal/host/motor_sim.c). */
+#define KFF 2
+#define KFRICTION 30
+#define KP 8
+#define KD 60
+
+static uint32_t cpr(const struct servo *s)
+{
+    return s->board->counts_per_rev;
+}
+
+static uint8_t resolution(const struct servo *s)
+{
+    return s->regs.mem[REG_RESOLUTION];
+}
+
+/* Position units (register 13 x 0.1 degree) to counts, and back, rounded. */
+static int64_t units_to_counts(const struct servo *s, int32_t units)
+{
+    int64_t num = (int64_t)units * resolution(s) * cpr(s);
+    return (num + (num >= 0 ? 1800 : -1800)) / 3600;
+}
+
+static int32_t counts_to_units(const struct servo *s, int64_t counts)
+{
+    int64_t den = (int64_t)resolution(s) * cpr(s);
+    int64_t num = counts * 3600;
+    return (int32_t)((num + (num >= 0 ? den / 2 : -den / 2)) / den);
+}
+
+/* Speed magnitude in units/s to counts/tick x 2^24, capped at MAX_SPEED_DPS. */
+static int32_t speed_q24(const struct servo *s, uint16_t units_per_s)
+{
+    int64_t max = ((int64_t)MAX_SPEED_DPS * cpr(s) << PLANNER_SHIFT) / (360 * TICKS_PER_S);
+    int64_t v = ((int64_t)units_per_s * resolution(s) * cpr(s) << PLANNER_SHIFT) /
+                (3600 * TICKS_PER_S);
+    return (int32_t)(v > max ? max : v);
+}
+
+/* Acceleration register (10 degree/s^2; 0 = no ramp) to counts/tick^2 x 2^24. */
+static int32_t accel_q24(const struct servo *s, uint8_t reg, int32_t vmax)
+{
+    if (reg == 0)
+        return vmax > 0 ? vmax : 1; /* no ramp: full speed in one tick */
+    int64_t a = ((int64_t)reg * 10 * cpr(s) << PLANNER_SHIFT) /
+                (360 * (int64_t)TICKS_PER_S * TICKS_PER_S);
+    return a > 0 ? (int32_t)a : 1;
+}
+
+static uint8_t acc_reg(const struct servo *s)
+{
+    return s->board->variant == VARIANT_BASE ? REG_BASE_ACCELERATION : REG_ACCELERATION;
+}
+
+static void set_limits(struct servo *s, uint16_t speed)
+{
+    struct motion *m = &s->motion;
+    m->lim.vmax = speed_q24(s, speed & 0x7FFFu);
+    if (m->lim.vmax < 1)
+        m->lim.vmax = 1;
+    uint8_t a = acc_reg(s);
+    m->lim.acc = accel_q24(s, s->regs.mem[a], m->lim.vmax);
+    m->lim.dec = accel_q24(s, s->regs.mem[a + 1u], m->lim.vmax);
+}
+
+/* The present position in units, as registers 36 and 40 report it. */
+static int32_t present_units(const struct servo *s)
+{
+    return counts_to_units(s, s->motion.counts - s->motion.zero);
+}
+
+/* Start driving from wherever the shaft is, without a jump in velocity. */
+static void engage(struct servo *s)
+{
+    struct motion *m = &s->motion;
+    if (m->mode == MOTION_OFF) {
+        m->plan.pos = m->counts * PLANNER_ONE;
+        m->plan.vel = (int32_t)(((int64_t)m->vel_q8 << PLANNER_SHIFT) >> 8);
+        hal_motor_enable(s->hal, true);
+    }
+}
+
+/* Torque off at once (speed 0, sleep, RESET). */
+static void coast(struct servo *s)
+{
+    struct motion *m = &s->motion;
+    m->mode = MOTION_OFF;
+    m->duty = 0;
+    hal_motor_drive(s->hal, 0);
+    hal_motor_enable(s->hal, false);
+}
+
+/* Stop at once and hold where the shaft is (brake, resolution change). */
+static void hold_here(struct servo *s)
+{
+    struct motion *m = &s->motion;
+    if (m->mode == MOTION_OFF)
+        return;
+    m->plan.pos = m->counts * PLANNER_ONE;
+    m->plan.vel = 0;
+    m->mode = MOTION_HOLD;
+}
+
+static bool may_start(const struct servo *s)
+{
+    return !s->regs.mem[REG_BRAKE] && !s->regs.mem[REG_SLEEP];
+}
+
+/* A move to an absolute position in units (already clamped), at speed. */
+static void start_move(struct servo *s, int32_t units, uint16_t speed)
+{
+    struct motion *m = &s->motion;
+    if ((speed & 0x7FFFu) == 0u || !may_start(s))
+        return; /* a goal with speed 0 (or braked, asleep) is stored, nothing moves */
+    engage(s);
+    set_limits(s, speed);
+    m->target = (m->zero + units_to_counts(s, units)) * PLANNER_ONE;
+    m->mode = MOTION_MOVE;
+}
+
+static void start_speed(struct servo *s, uint16_t speed)
+{
+    struct motion *m = &s->motion;
+    if ((speed & 0x7FFFu) == 0u) {
+        coast(s); /* rule 3; §6.2: a stop without torque */
+        return;
+    }
+    if (!may_start(s))
+        return;
+    engage(s);
+    set_limits(s, speed);
+    m->speed_target = (speed & 0x8000u) ? -m->lim.vmax : m->lim.vmax;
+    m->mode = MOTION_SPEED;
+}
+
+/* Goal register written: absolute move, or on the base a move relative to the present
+ * angle (§6.1). */
+static void goal_written(struct servo *s)
+{
+    uint16_t goal = regs_get(&s->regs, REG_GOAL_POSITION);
+    uint16_t speed = regs_get(&s->regs, REG_MOVING_SPEED);
+    if (s->board->variant == VARIANT_BASE)
+        start_move(s, present_units(s) + (int16_t)goal, speed);
+    else if (!regs_speed_mode(&s->regs))
+        start_move(s, goal, speed);
+}
+
+static void speed_written(struct servo *s)
+{
+    struct motion *m = &s->motion;
+    uint16_t speed = regs_get(&s->regs, REG_MOVING_SPEED);
+    if ((speed & 0x7FFFu) == 0u) {
+        coast(s);
+    } else if (regs_speed_mode(&s->regs) && m->mode != MOTION_MOVE) {
+        start_speed(s, speed);
+    } else if (m->mode == MOTION_MOVE || m->mode == MOTION_TRAJ) {
+        set_limits(s, speed); /* a new cruise speed, re-planned from here */
+    }
+}
+
+void motion_init(struct servo *s)
+{
+    struct motion *m = &s->motion;
+    *m = (struct motion){0};
+    m->raw = hal_motor_position(s->hal);
+    m->counts = 0;
+    m->zero = 0;
+    m->tick_us = hal_clock_us(s->hal);
+    coast(s); /* rule 1: the motor is off until a command asks for motion */
+    regs_set(&s->regs, REG_GOAL_POSITION, regs_present_position(&s->regs));
+}
+
+bool motion_write_allowed(const struct servo *s, uint8_t addr, uint8_t n)
+{
+    (void)s;
+    (void)addr;
+    (void)n;
+    return true;
+}
+
+static bool touches(uint8_t addr, uint8_t n, uint8_t reg)
+{
+    return reg >= addr && reg < addr + n;
+}
+
+void motion_on_write(struct servo *s, uint8_t addr, uint8_t n)
+{
+    struct motion *m = &s->motion;
+    if (touches(addr, n, REG_SLEEP) && s->regs.mem[REG_SLEEP])
+        coast(s);
+    if (touches(addr, n, REG_BRAKE) && s->regs.mem[REG_BRAKE])
+        hold_here(s);
+    if (touches(addr, n, REG_RESOLUTION)) {
+        hold_here(s); /* §5: a resolution change stops any motion */
+        return;
+    }
+    uint8_t a = acc_reg(s);
+    if ((touches(addr, n, a) || touches(addr, n, (uint8_t)(a + 1u))) && m->mode != MOTION_OFF)
+        set_limits(s, regs_get(&s->regs, REG_MOVING_SPEED));
+    if (touches(addr, n, REG_GOAL_POSITION))
+        goal_written(s);
+    else if (touches(addr, n, REG_MOVING_SPEED))
+        speed_written(s);
+}
+
+uint8_t motion_start_end(struct servo *s, uint8_t what)
+{
+    struct motion *m = &s->motion;
+    if (what == 1u) {
+        m->zero = m->counts; /* the present position becomes 0 */
+        m->plan.pos = m->counts * PLANNER_ONE;
+        m->target = m->plan.pos;
+        regs_set(&s->regs, REG_CW_LIMIT, 0);
+    } else {
+        int32_t here = present_units(s);
+        if (here < (int32_t)regs_get(&s->regs, REG_CW_LIMIT) || here > 0x7FFF)
+            return ERR_INSTRUCTION;
+        regs_set(&s->regs, REG_CCW_LIMIT, (uint16_t)here);
+    }
+    store_sync(&s->store, &s->regs, hal_clock_us(s->hal)); /* both are stored (§4.6) */
+    return 0;
+}
+
+/* Trajectory: from point i, the last point reached without a change of direction. */
+static uint8_t traj_run_end(const struct servo *s, uint8_t i, int64_t from)
+{
+    const struct traj *t = &s->traj;
+    int64_t prev = from;
+    int dir = 0;
+    uint8_t j = i;
+    for (; j < t->count; j++) {
+        int64_t p = units_to_counts(s, t->pt[j].angle) * PLANNER_ONE;
+        int d = p > prev ? 1 : p < prev ? -1 : 0;
+        if (dir && d && d != dir)
+            break;
+        if (d)
+            dir = d;
+        prev = p;
+    }
+    return (uint8_t)(j - 1u);
+}
+
+static void traj_segment(struct servo *s)
+{
+    struct motion *m = &s->motion;
+    m->traj_stop = traj_run_end(s, m->traj_next, m->plan.pos);
+    m->target = (m->zero + units_to_counts(s, s->traj.pt[m->traj_stop].angle)) * PLANNER_ONE;
+    set_limits(s, s->traj.pt[m->traj_next].speed);
+}
+
+uint8_t motion_traj_action(struct servo *s)
+{
+    struct motion *m = &s->motion;
+    if (!may_start(s))
+        return ERR_INSTRUCTION;
+    engage(s);
+    m->traj_next = 0;
+    m->mode = MOTION_TRAJ;
+    traj_segment(s);
+    return 0;
+}
+
+uint8_t motion_custom_move(struct servo *s, const struct custom_move *cm)
+{
+    if (cm->has_ramps) {
+        uint8_t a = acc_reg(s);
+        s->regs.mem[a] = cm->acc; /* §4.8: written into the ramp registers */
+        s->regs.mem[a + 1u] = cm->dec;
+        store_sync(&s->store, &s->regs, hal_clock_us(s->hal));
+    }
+    if ((cm->speed & 0x7FFFu) == 0u) {
+        coast(s); /* rule 3: a speed of 0 stops */
+        return 0;
+    }
+    if (!may_start(s))
+        return ERR_INSTRUCTION;
+    int32_t target;
+    if (cm->absolute) {
+        target = regs_clamp_goal(&s->regs, cm->target);
+    } else {
+        int32_t rel = (cm->speed & 0x8000u) ? -(int32_t)cm->target : (int32_t)cm->target;
+        target = present_units(s) + rel;
+        if (!regs_speed_mode(&s->regs))
+            target = regs_clamp_goal(&s->regs, (uint16_t)(target < 0 ? 0 : target > 0xFFFF
+                                                                                ? 0xFFFF
+                                                                                : target));
+    }
+    start_move(s, target, (uint16_t)(cm->speed & 0x7FFFu));
+    return 0;
+}
+
+void motion_reset(struct servo *s)
+{
+    coast(s);
+    s->motion.zero = s->motion.counts;
+}
+
+/* Read the sensor: unwrap the count and filter the measured speed. */
+static void measure(struct servo *s)
+{
+    struct motion *m = &s->motion;
+    int32_t raw = hal_motor_position(s->hal);
+    int32_t delta = (int32_t)((uint32_t)raw - (uint32_t)m->raw);
+    m->raw = raw;
+    m->counts += delta;
+    m->vel_q8 += (delta * 256 - m->vel_q8) / 8;
+}
+
+/* Position loop with speed feed-forward; returns the duty. */
+static int16_t control(const struct motion *m)
+{
+    int64_t ref = (m->plan.pos + PLANNER_ONE / 2) >> PLANNER_SHIFT;
+    int64_t err = ref - m->counts;
+    int32_t vref_q8 = m->plan.vel >> (PLANNER_SHIFT - 8);
+    int64_t duty = ((int64_t)KFF * vref_q8) / 256 + (int64_t)KP * err +
+                   ((int64_t)KD * (vref_q8 - m->vel_q8)) / 256;
+    if (m->plan.vel)
+        duty += m->plan.vel > 0 ? KFRICTION : -KFRICTION;
+    if (duty > HAL_DUTY_MAX)
+        duty = HAL_DUTY_MAX;
+    if (duty < -HAL_DUTY_MAX)
+        duty = -HAL_DUTY_MAX;
+    return (int16_t)duty;
+}
+
+static void tick(struct servo *s)
+{
+    struct motion *m = &s->motion;
+    measure(s);
+    switch (m->mode) {
+    case MOTION_MOVE:
+        if (planner_step_to(&m->plan, m->target, &m->lim))
+            m->mode = MOTION_HOLD;
+        break;
+    case MOTION_SPEED:
+        planner_step_speed(&m->plan, m->speed_target, &m->lim);
+        break;
+    case MOTION_TRAJ: {
+        bool rest = planner_step_to(&m->plan, m->target, &m->lim);
+        int64_t pt = (m->zero + units_to_counts(s, s->traj.pt[m->traj_next].angle)) * PLANNER_ONE;
+        bool passed = m->plan.vel > 0 ? m->plan.pos >= pt : m->plan.vel < 0 ? m->plan.pos <= pt : rest;
+        if (passed && m->traj_next < m->traj_stop) {
+            m->traj_next++; /* through it without stopping: next point's speed */
+            set_limits(s, s->traj.pt[m->traj_next].speed);
+        } else if (rest) {
+            if (m->traj_stop + 1u >= s->traj.count) {
+                m->mode = MOTION_HOLD;
+            } else {
+                m->traj_next = (uint8_t)(m->traj_stop + 1u);
+                traj_segment(s);
+            }
+        }
+        break;
+    }
+    default:
+        break;
+    }
+    if (m->mode == MOTION_OFF) {
+        m->duty = 0;
+    } else {
+        m->duty = control(m);
+        hal_motor_drive(s->hal, m->duty);
+    }
+}
+
+/* Present-state registers (§5.1), each 16-bit one a single store. */
+static void report(struct servo *s)
+{
+    struct motion *m = &s->motion;
+    uint16_t pos = (uint16_t)present_units(s);
+    if (regs_applicable(s->board, REG_PRESENT_POSITION))
+        regs_set(&s->regs, REG_PRESENT_POSITION, pos);
+    else
+        regs_set(&s->regs, REG_TURNED_ANGLE, pos);
+    int64_t speed = ((int64_t)m->vel_q8 * TICKS_PER_S * 3600) /
+                    ((int64_t)256 * resolution(s) * cpr(s));
+    if (speed > INT16_MAX)
+        speed = INT16_MAX;
+    if (speed < INT16_MIN)
+        speed = INT16_MIN;
+    regs_set(&s->regs, REG_PRESENT_SPEED, (uint16_t)(int16_t)speed);
+    s->regs.mem[REG_MOVING] =
+        (uint8_t)(m->mode == MOTION_MOVE || m->mode == MOTION_SPEED || m->mode == MOTION_TRAJ);
+}
+
+void motion_poll(struct servo *s, uint32_t now_us)
+{
+    struct motion *m = &s->motion;
+    uint8_t due = 0;
+    while ((int32_t)(now_us - m->tick_us) >= (int32_t)MOTION_TICK_US) {
+        m->tick_us += MOTION_TICK_US;
+        tick(s);
+        if (++due == 4u) { /* far behind (a long flash stall): skip, do not race */
+            m->tick_us = now_us;
+            break;
+        }
+    }
+    if (due)
+        report(s);
+}
