@@ -31,6 +31,7 @@ struct motion {
     int64_t zero;            /* counts at position 0 */
     int32_t raw;             /* last raw sensor reading */
     int32_t vel_q8;          /* measured velocity, counts/tick x 2^8, filtered */
+    int32_t integral;        /* position error summed while the reference rests */
     uint32_t tick_us;        /* time of the last control tick */
     int16_t duty;            /* last drive */
     uint8_t mode;            /* enum motion_mode */

@@ -42,3 +42,15 @@ if [ -f build/stm32/servo-stub.elf ]; then
 fi
 echo
 "$build/tools/bench_store"
+echo
+echo "== motion layer, host x86-64 instructions (callgrind; own ideal-motor HAL)"
+for w in tick replan; do
+    fn=motion_poll
+    [ "$w" = replan ] && fn=motion_on_write
+    valgrind --tool=callgrind --toggle-collect="$fn" --callgrind-out-file="$out/cg" \
+        "$build/tools/bench_motion" "$w" 20000 >/dev/null 2>&1
+    awk -v w="$w" '/^summary:/ { printf "per %-7s %6.0f   (target %s)\n", w, $2 / 20000,
+        w == "tick" ? "<= 1,500: planner + controller + registers" : "<= 8,000" }' "$out/cg"
+done
+echo
+"$build/tools/motion_trace"

@@ -1,0 +1,88 @@
+/* bench_motion.c - workload for `make bench`: control ticks and re-plans of the motion
+ * layer, counted by callgrind (tools/bench.sh). It carries its own minimal HAL (an ideal
+ * motor that follows the drive) so that only firmware instructions are counted.
+ *
+ *   bench_motion tick N     N control ticks of a long move (motion_poll, one tick each)
+ *   bench_motion replan N   N goal changes mid-move (motion_on_write)
+ */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "dispatch.h"
+#include "hal.h"
+#include "motion.h"
+#include "servo.h"
+
+struct hal {
+    uint32_t now;
+    int32_t pos;
+    int16_t duty;
+};
+
+uint32_t hal_clock_us(struct hal *h) { return h->now; }
+void hal_uart_set_baud(struct hal *h, uint32_t baud) { (void)h; (void)baud; }
+void hal_uart_send(struct hal *h, const uint8_t *buf, uint16_t len) { (void)h; (void)buf; (void)len; }
+bool hal_uart_tx_busy(struct hal *h) { (void)h; return false; }
+uint32_t hal_irq_save(struct hal *h) { (void)h; return 0; }
+void hal_irq_restore(struct hal *h, uint32_t state) { (void)h; (void)state; }
+static uint8_t flash[HAL_FLASH_PAGES][HAL_FLASH_PAGE_BYTES];
+const uint8_t *hal_flash_page(struct hal *h, uint8_t p) { (void)h; return flash[p]; }
+bool hal_flash_erase(struct hal *h, uint8_t p) { (void)h; memset(flash[p], 0xFF, sizeof flash[p]); return true; }
+bool hal_flash_program(struct hal *h, uint8_t p, uint16_t off, uint16_t v)
+{
+    (void)h;
+    flash[p][off] &= (uint8_t)v;
+    flash[p][off + 1u] &= (uint8_t)(v >> 8);
+    return true;
+}
+void hal_motor_enable(struct hal *h, bool on) { (void)h; (void)on; }
+void hal_motor_drive(struct hal *h, int16_t duty) { h->duty = duty; }
+int32_t hal_motor_position(struct hal *h) { return h->pos += h->duty / 40; }
+uint16_t hal_motor_current_ma(struct hal *h) { (void)h; return 100; }
+uint16_t hal_supply_mv(struct hal *h) { (void)h; return 12000; }
+int16_t hal_temperature_dc(struct hal *h) { (void)h; return 250; }
+uint8_t hal_photo_switches(struct hal *h) { (void)h; return 0; }
+void hal_rs485_termination(struct hal *h, bool on) { (void)h; (void)on; }
+void hal_watchdog_start(struct hal *h) { (void)h; }
+void hal_watchdog_feed(struct hal *h) { (void)h; }
+
+static struct hal hal;
+static struct servo s;
+
+static void write16(uint8_t addr, uint16_t v)
+{
+    uint8_t d[2] = {(uint8_t)v, (uint8_t)(v >> 8)};
+    dispatch_write(&s, addr, d, 2);
+}
+
+int main(int argc, char **argv)
+{
+    if (argc != 3) {
+        fprintf(stderr, "usage: bench_motion tick|replan N\n");
+        return 2;
+    }
+    long n = strtol(argv[2], 0, 10);
+    memset(flash, 0xFF, sizeof flash);
+    servo_init(&s, &board_foot, &hal);
+    write16(REG_CW_LIMIT, 0);
+    write16(REG_CCW_LIMIT, 30000);
+    write16(REG_MOVING_SPEED, 90);
+    write16(REG_GOAL_POSITION, 30000);
+    if (strcmp(argv[1], "tick") == 0) {
+        for (long i = 0; i < n; i++) {
+            hal.now += MOTION_TICK_US;
+            motion_poll(&s, hal.now);
+        }
+    } else {
+        for (long i = 0; i < n; i++) {
+            hal.now += MOTION_TICK_US;
+            motion_poll(&s, hal.now);
+            s.regs.half[REG_GOAL_POSITION / 2] = (uint16_t)(i & 1 ? 20000 : 29000);
+            motion_on_write(&s, REG_GOAL_POSITION, 2);
+        }
+    }
+    printf("mode %u, reference at %lld counts\n", s.motion.mode,
+           (long long)(s.motion.plan.pos >> PLANNER_SHIFT));
+    return 0;
+}
