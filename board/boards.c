@@ -9,30 +9,35 @@ const struct board board_base = {
     .name = "base", .variant = VARIANT_BASE, .model_number = 0x5201,
     .max_angle_ddeg = 0, .current_limit = 50, .default_baud = 115200,
     .return_delay = 8, .photo_switches = 0, .counts_per_rev = 16384,
+    .supply_min_mv = 9000, .supply_max_mv = 15000, .homing_dps = 60, .homing_travel_deg = 800,
 };
 
 const struct board board_foot = {
     .name = "foot", .variant = VARIANT_FOOT, .model_number = 0x5202,
     .max_angle_ddeg = 3600, .current_limit = 40, .default_baud = 9600,
     .return_delay = 16, .photo_switches = 0, .counts_per_rev = 16384,
+    .supply_min_mv = 9000, .supply_max_mv = 15000, .homing_dps = 60, .homing_travel_deg = 800,
 };
 
 const struct board board_arm = {
     .name = "arm", .variant = VARIANT_ARM, .model_number = 0x5203,
     .max_angle_ddeg = 3600, .current_limit = 30, .default_baud = 9600,
     .return_delay = 16, .photo_switches = 1, .counts_per_rev = 16384,
+    .supply_min_mv = 9000, .supply_max_mv = 15000, .homing_dps = 60, .homing_travel_deg = 800,
 };
 
 const struct board board_wrist = {
     .name = "wrist", .variant = VARIANT_WRIST, .model_number = 0x5204,
     .max_angle_ddeg = 2700, .current_limit = 20, .default_baud = 9600,
     .return_delay = 16, .photo_switches = 1, .counts_per_rev = 16384,
+    .supply_min_mv = 9000, .supply_max_mv = 15000, .homing_dps = 60, .homing_travel_deg = 800,
 };
 
 const struct board board_finger = {
     .name = "finger", .variant = VARIANT_FINGER, .model_number = 0x5205,
     .max_angle_ddeg = 1800, .current_limit = 10, .default_baud = 9600,
     .return_delay = 16, .photo_switches = 1, .counts_per_rev = 16384,
+    .supply_min_mv = 9000, .supply_max_mv = 15000, .homing_dps = 60, .homing_travel_deg = 800,
 };
 
 static const struct board *const boards_all[] = {

@@ -13,7 +13,7 @@ target_compile_definitions(servo_core PUBLIC REGS_WITH_TEXT=1)
 
 add_library(hal_host STATIC hal/host/hal_host.c hal/host/flash_sim.c hal/host/motor_sim.c)
 target_link_libraries(hal_host PUBLIC m)
-target_include_directories(hal_host PUBLIC hal hal/host)
+target_include_directories(hal_host PUBLIC hal hal/host include)
 target_compile_options(hal_host PRIVATE ${SERVO_WARNINGS})
 
 # The virtual bus: several host-built servos and a host on one wire, in virtual time.

@@ -26,6 +26,10 @@ struct board {
     uint8_t return_delay;      /* register 5 default, x 500 us */
     uint8_t photo_switches;    /* 1 if the board has the two homing switches */
     uint32_t counts_per_rev;   /* position sensor counts per output turn */
+    uint16_t supply_min_mv;    /* under-voltage below this */
+    uint16_t supply_max_mv;    /* over-voltage above this */
+    uint16_t homing_dps;       /* homing speed, degrees/s */
+    uint16_t homing_travel_deg; /* a switch not found within this travel fails homing */
 };
 
 extern const struct board board_base, board_foot, board_arm, board_wrist, board_finger;

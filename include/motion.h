@@ -19,7 +19,13 @@ enum motion_mode {
     MOTION_MOVE,  /* trapezoidal move to target */
     MOTION_SPEED, /* speed mode */
     MOTION_TRAJ,  /* running the stored trajectory */
+    MOTION_STOP,  /* controlled stop (heartbeat), then hold */
+    MOTION_HOME,  /* homing (§9) */
 };
+
+/* Homing phases and the status nibble of register 24. */
+enum homing_phase { HOME_BACKOFF, HOME_SEEK, HOME_REVERSE };
+enum homing_status { HOMING_NEVER, HOMING_RUNNING, HOMING_DONE, HOMING_FAILED };
 
 /* State of the motion layer of one servo. */
 struct motion {
@@ -37,6 +43,12 @@ struct motion {
     uint8_t mode;            /* enum motion_mode */
     uint8_t traj_next;       /* trajectory: point being approached */
     uint8_t traj_stop;       /* trajectory: last point before a reversal or the end */
+    int8_t sign;             /* -1 when register 19 = 2 mirrors the motor (§9) */
+    uint8_t referenced;      /* homing succeeded: the limits are the measured travel */
+    uint8_t home_phase;      /* enum homing_phase */
+    int64_t home_from;       /* counts where the phase began */
+    uint8_t sw_raw, sw_count; /* photo switch debouncing */
+    int64_t sw_edge;         /* counts where the switches last changed (not debounce-late) */
 };
 
 /* CUSTOM MOVE (PROTOCOL.md §4.8), decoded. */
@@ -51,9 +63,10 @@ struct custom_move {
 /* Bring the motion layer up: motor off, present position read, nothing moves (rule 1). */
 void motion_init(struct servo *s);
 
-/* May a host write to [addr, addr + n) run now? False refuses the whole write with an
- * instruction error (e.g. a motion command while a protection unload is latched). */
-bool motion_write_allowed(const struct servo *s, uint8_t addr, uint8_t n);
+/* May a host write of data[0..n) to addr run now? False refuses the whole write with an
+ * instruction error: a motion command while a protection unload is latched or (register
+ * 49) before homing, or clearing an unload whose condition persists. */
+bool motion_write_allowed(const struct servo *s, uint8_t addr, const uint8_t *data, uint8_t n);
 
 /* The registers [addr, addr + n) were written by the host and hold their new values. */
 void motion_on_write(struct servo *s, uint8_t addr, uint8_t n);

@@ -10,6 +10,7 @@
 #include "link.h"
 #include "motion.h"
 #include "regs.h"
+#include "safety.h"
 #include "store.h"
 #include "traj.h"
 
@@ -32,6 +33,7 @@ struct servo {
     struct traj traj;
     struct store store;
     struct motion motion;
+    struct safety safety;
     uint8_t live_err; /* ERR bits 0-3 and 6, owned by the safety layer */
 };
 

@@ -25,7 +25,7 @@ static void rescale(struct regs *r, uint8_t addr, uint8_t old_res, uint8_t new_r
 uint8_t dispatch_write(struct servo *s, uint8_t addr, const uint8_t *data, uint8_t n)
 {
     struct regs *r = &s->regs;
-    if (!regs_write_valid(r, addr, data, n) || !motion_write_allowed(s, addr, n))
+    if (!regs_write_valid(r, addr, data, n) || !motion_write_allowed(s, addr, data, n))
         return ERR_INSTRUCTION;
     uint8_t old_res = r->mem[REG_RESOLUTION];
     for (uint8_t i = 0; i < n;) {
@@ -214,6 +214,7 @@ void dispatch_frame(struct servo *s, const struct frame *f)
         return;
     }
 
+    safety_packet_seen(s); /* §7.1: any valid packet for this servo feeds the heartbeat */
     uint8_t ins = f->buf[2];
     uint8_t n = (uint8_t)(f->buf[1] - 2u); /* LEN counts INS and CHK */
     struct result res = {0};

@@ -5,10 +5,12 @@
  * The three rules of §0: at power-up the motor is off and the goal equals the present
  * position; a speed of 0 drops the drive to zero in the tick it arrives and the brake
  * freezes the reference where the shaft is; releasing the brake or waking starts
- * nothing. Everything runs in the main loop. */
+ * nothing. Heartbeat expiry and protection unloads (safety.c) and homing (§9) act here
+ * too. Everything runs in the main loop. */
 #include "hal.h"
 #include "motion.h"
 #include "proto.h"
+#include "safety.h"
 #include "servo.h"
 #include "store.h"
 
@@ -22,6 +24,7 @@
 #define KFRICTION 30
 #define KP 8
 #define KD 60
+#define DEBOUNCE_TICKS 5   /* photo switches: stable this long to count */
 #define KI_SHIFT 2         /* integral gain 1/4 per count per tick, only at rest, */
 #define INTEGRAL_MAX 1200  /* worth at most 300 per mille: beats static friction */
 
@@ -90,6 +93,31 @@ static int32_t present_units(const struct servo *s)
     return counts_to_units(s, s->motion.counts - s->motion.zero);
 }
 
+static bool may_start(const struct servo *s)
+{
+    return !s->regs.mem[REG_BRAKE] && !s->regs.mem[REG_SLEEP] && !safety_unloaded(s);
+}
+
+/* Register 49 (§5.1): a motor with photo switches moves only after homing, except in
+ * speed mode when register 49 allows it. */
+static bool referenced_for(const struct servo *s, bool speed_mode)
+{
+    return !s->board->photo_switches || s->motion.referenced ||
+           (speed_mode && s->regs.mem[REG_MOVE_WITHOUT_REFERENCE]);
+}
+
+/* Homing is over: status nibble of register 24, the written nibble kept. */
+static void homing_status(struct servo *s, uint8_t status)
+{
+    s->regs.mem[REG_HOMING] = (uint8_t)((status << 4) | (s->regs.mem[REG_HOMING] & 0x0Fu));
+}
+
+static void homing_fail(struct servo *s)
+{
+    s->motion.referenced = 0;
+    homing_status(s, HOMING_FAILED);
+}
+
 /* Start driving from wherever the shaft is, without a jump in velocity. */
 static void engage(struct servo *s)
 {
@@ -106,6 +134,8 @@ static void engage(struct servo *s)
 static void coast(struct servo *s)
 {
     struct motion *m = &s->motion;
+    if (m->mode == MOTION_HOME)
+        homing_fail(s); /* aborted */
     m->mode = MOTION_OFF;
     m->duty = 0;
     hal_motor_drive(s->hal, 0);
@@ -116,6 +146,8 @@ static void coast(struct servo *s)
 static void hold_here(struct servo *s)
 {
     struct motion *m = &s->motion;
+    if (m->mode == MOTION_HOME)
+        homing_fail(s); /* aborted */
     if (m->mode == MOTION_OFF)
         return;
     m->plan.pos = m->counts * PLANNER_ONE;
@@ -123,16 +155,87 @@ static void hold_here(struct servo *s)
     m->mode = MOTION_HOLD;
 }
 
-static bool may_start(const struct servo *s)
+/* Ramp down with the deceleration, then hold (heartbeat, end of homing). */
+static void stop_soft(struct servo *s)
 {
-    return !s->regs.mem[REG_BRAKE] && !s->regs.mem[REG_SLEEP];
+    struct motion *m = &s->motion;
+    if (m->mode != MOTION_OFF && m->mode != MOTION_HOLD)
+        m->mode = MOTION_STOP;
+}
+
+static void start_homing(struct servo *s)
+{
+    struct motion *m = &s->motion;
+    homing_status(s, HOMING_RUNNING);
+    m->referenced = 0;
+    if (!s->board->photo_switches || !may_start(s)) {
+        homing_fail(s);
+        return;
+    }
+    engage(s);
+    m->mode = MOTION_HOME;
+    m->home_phase = (s->regs.mem[REG_PHOTO_SWITCHES] & 1u) ? HOME_BACKOFF : HOME_SEEK;
+    m->home_from = m->counts;
+    uint16_t dps = s->board->homing_dps;
+    m->lim.vmax = (int32_t)(((int64_t)dps * cpr(s) << PLANNER_SHIFT) / (360 * TICKS_PER_S));
+    uint8_t a = acc_reg(s);
+    m->lim.acc = accel_q24(s, s->regs.mem[a] ? s->regs.mem[a] : 36u, m->lim.vmax);
+    m->lim.dec = accel_q24(s, s->regs.mem[a + 1u] ? s->regs.mem[a + 1u] : 36u, m->lim.vmax);
+    m->speed_target = m->home_phase == HOME_BACKOFF ? m->lim.vmax : -m->lim.vmax;
+}
+
+/* One tick of homing (§9), after the switches were read. */
+static void homing_tick(struct servo *s)
+{
+    struct motion *m = &s->motion;
+    uint8_t sw = s->regs.mem[REG_PHOTO_SWITCHES];
+    int64_t travel = m->counts - m->home_from;
+    int64_t max = (int64_t)s->board->homing_travel_deg * cpr(s) / 360;
+    if (sw == 3u || travel > max || travel < -max) {
+        hold_here(s); /* both switches at once, or a switch not found: failed */
+        return;
+    }
+    switch (m->home_phase) {
+    case HOME_BACKOFF:
+        if (!(sw & 1u)) {
+            m->home_phase = HOME_SEEK;
+            m->home_from = m->counts;
+            m->speed_target = -m->lim.vmax;
+        }
+        break;
+    case HOME_SEEK:
+        if (sw & 1u) { /* zero: positions count up from here toward the end */
+            m->zero = m->sw_edge;
+            m->home_phase = HOME_REVERSE;
+            m->home_from = m->counts;
+            m->speed_target = m->lim.vmax;
+        }
+        break;
+    default:
+        if (sw & 2u) {
+            int32_t end = counts_to_units(s, m->sw_edge - m->zero);
+            if (end < 1 || end > 0x7FFF) {
+                hold_here(s);
+                return;
+            }
+            regs_set(&s->regs, REG_CW_LIMIT, 0);
+            regs_set(&s->regs, REG_CCW_LIMIT, (uint16_t)end);
+            store_sync(&s->store, &s->regs, hal_clock_us(s->hal)); /* the limits are stored */
+            m->referenced = 1;
+            homing_status(s, HOMING_DONE);
+            m->mode = MOTION_STOP; /* stops and holds at the end */
+            return;
+        }
+        break;
+    }
+    planner_step_speed(&m->plan, m->speed_target, &m->lim);
 }
 
 /* A move to an absolute position in units (already clamped), at speed. */
 static void start_move(struct servo *s, int32_t units, uint16_t speed)
 {
     struct motion *m = &s->motion;
-    if ((speed & 0x7FFFu) == 0u || !may_start(s))
+    if ((speed & 0x7FFFu) == 0u || !may_start(s) || !referenced_for(s, false))
         return; /* a goal with speed 0 (or braked, asleep) is stored, nothing moves */
     engage(s);
     set_limits(s, speed);
@@ -147,7 +250,7 @@ static void start_speed(struct servo *s, uint16_t speed)
         coast(s); /* rule 3; §6.2: a stop without torque */
         return;
     }
-    if (!may_start(s))
+    if (!may_start(s) || !referenced_for(s, true))
         return;
     engage(s);
     set_limits(s, speed);
@@ -188,16 +291,9 @@ void motion_init(struct servo *s)
     m->counts = 0;
     m->zero = 0;
     m->tick_us = hal_clock_us(s->hal);
+    m->sign = s->regs.mem[REG_HOMING_ZERO_SIDE] == 2u ? -1 : 1;
     coast(s); /* rule 1: the motor is off until a command asks for motion */
     regs_set(&s->regs, REG_GOAL_POSITION, regs_present_position(&s->regs));
-}
-
-bool motion_write_allowed(const struct servo *s, uint8_t addr, uint8_t n)
-{
-    (void)s;
-    (void)addr;
-    (void)n;
-    return true;
 }
 
 static bool touches(uint8_t addr, uint8_t n, uint8_t reg)
@@ -205,9 +301,45 @@ static bool touches(uint8_t addr, uint8_t n, uint8_t reg)
     return reg >= addr && reg < addr + n;
 }
 
+bool motion_write_allowed(const struct servo *s, uint8_t addr, const uint8_t *data, uint8_t n)
+{
+    if (touches(addr, n, REG_CLEAR_UNLOAD) && !safety_may_clear(s))
+        return false; /* the condition is still there */
+    bool unloaded = safety_unloaded(s) && !touches(addr, n, REG_CLEAR_UNLOAD);
+    if (touches(addr, n, REG_HOMING) && data[REG_HOMING - addr] == 1u && unloaded)
+        return false;
+    if (touches(addr, n, REG_GOAL_POSITION) &&
+        (unloaded || !referenced_for(s, false)))
+        return false;
+    if (touches(addr, n, REG_MOVING_SPEED)) {
+        uint8_t i = (uint8_t)(REG_MOVING_SPEED - addr);
+        bool stop = ((data[i] | (data[i + 1u] << 8)) & 0x7FFF) == 0; /* rule 3: never refused */
+        /* In position mode the speed only sets the cruise speed: it starts nothing. */
+        if (!stop && regs_speed_mode(&s->regs) && (unloaded || !referenced_for(s, true)))
+            return false;
+    }
+    return true;
+}
+
 void motion_on_write(struct servo *s, uint8_t addr, uint8_t n)
 {
     struct motion *m = &s->motion;
+    if (touches(addr, n, REG_CLEAR_UNLOAD))
+        safety_clear(s); /* nothing moves until the next motion command */
+    if (touches(addr, n, REG_HOMING_ZERO_SIDE) &&
+        m->sign != (s->regs.mem[REG_HOMING_ZERO_SIDE] == 2u ? -1 : 1)) {
+        coast(s); /* the motor is mirrored from now on: the reference is gone */
+        m->sign = (int8_t)-m->sign;
+        m->counts = -m->counts;
+        m->zero = -m->zero;
+        m->referenced = 0;
+    }
+    if (touches(addr, n, REG_HOMING)) {
+        if (s->regs.mem[REG_HOMING] & 0x0Fu)
+            start_homing(s);
+        else if (m->mode == MOTION_HOME)
+            hold_here(s); /* writing 0 aborts */
+    }
     if (touches(addr, n, REG_SLEEP) && s->regs.mem[REG_SLEEP])
         coast(s);
     if (touches(addr, n, REG_BRAKE) && s->regs.mem[REG_BRAKE])
@@ -273,7 +405,7 @@ static void traj_segment(struct servo *s)
 uint8_t motion_traj_action(struct servo *s)
 {
     struct motion *m = &s->motion;
-    if (!may_start(s))
+    if (!may_start(s) || !referenced_for(s, false))
         return ERR_INSTRUCTION;
     engage(s);
     m->traj_next = 0;
@@ -294,7 +426,7 @@ uint8_t motion_custom_move(struct servo *s, const struct custom_move *cm)
         coast(s); /* rule 3: a speed of 0 stops */
         return 0;
     }
-    if (!may_start(s))
+    if (!may_start(s) || !referenced_for(s, false))
         return ERR_INSTRUCTION;
     int32_t target;
     if (cm->absolute) {
@@ -315,6 +447,7 @@ void motion_reset(struct servo *s)
 {
     coast(s);
     s->motion.zero = s->motion.counts;
+    s->motion.referenced = 0; /* §4.5: RESET clears the homing reference */
 }
 
 /* Read the sensor: unwrap the count and filter the measured speed. */
@@ -322,10 +455,18 @@ static void measure(struct servo *s)
 {
     struct motion *m = &s->motion;
     int32_t raw = hal_motor_position(s->hal);
-    int32_t delta = (int32_t)((uint32_t)raw - (uint32_t)m->raw);
+    int32_t delta = (int32_t)((uint32_t)raw - (uint32_t)m->raw) * m->sign;
     m->raw = raw;
     m->counts += delta;
     m->vel_q8 += (delta * 256 - m->vel_q8) / 8;
+    uint8_t sw = hal_photo_switches(s->hal) & 3u;
+    if (sw != m->sw_raw) {
+        m->sw_raw = sw;
+        m->sw_count = 0;
+        m->sw_edge = m->counts;
+    } else if (m->sw_count < DEBOUNCE_TICKS && ++m->sw_count == DEBOUNCE_TICKS) {
+        s->regs.mem[REG_PHOTO_SWITCHES] = sw;
+    }
 }
 
 /* Position loop with speed and friction feed-forward, and an integral term while the
@@ -357,7 +498,27 @@ static void tick(struct servo *s)
 {
     struct motion *m = &s->motion;
     measure(s);
+    bool moving = m->mode != MOTION_OFF && m->mode != MOTION_HOLD;
+    uint8_t ev = safety_tick(s, moving);
+    if (ev == SAFETY_UNLOAD) {
+        coast(s); /* torque off in the tick the fault is seen */
+    } else if (ev == SAFETY_HEARTBEAT && moving) {
+        if (m->mode == MOTION_HOME)
+            homing_fail(s);
+        stop_soft(s);
+    }
+    if (m->mode == MOTION_HOME && (s->safety.present & ERR_STALL)) {
+        hold_here(s); /* a stall fails homing */
+    }
     switch (m->mode) {
+    case MOTION_STOP:
+        planner_step_speed(&m->plan, 0, &m->lim);
+        if (m->plan.vel == 0)
+            m->mode = MOTION_HOLD;
+        break;
+    case MOTION_HOME:
+        homing_tick(s);
+        break;
     case MOTION_MOVE:
         if (planner_step_to(&m->plan, m->target, &m->lim))
             m->mode = MOTION_HOLD;
@@ -389,7 +550,7 @@ static void tick(struct servo *s)
         m->duty = 0;
     } else {
         m->duty = control(m);
-        hal_motor_drive(s->hal, m->duty);
+        hal_motor_drive(s->hal, (int16_t)(m->duty * m->sign));
     }
 }
 
@@ -409,8 +570,7 @@ static void report(struct servo *s)
     if (speed < INT16_MIN)
         speed = INT16_MIN;
     regs_set(&s->regs, REG_PRESENT_SPEED, (uint16_t)(int16_t)speed);
-    s->regs.mem[REG_MOVING] =
-        (uint8_t)(m->mode == MOTION_MOVE || m->mode == MOTION_SPEED || m->mode == MOTION_TRAJ);
+    s->regs.mem[REG_MOVING] = (uint8_t)(m->mode != MOTION_OFF && m->mode != MOTION_HOLD);
 }
 
 void motion_poll(struct servo *s, uint32_t now_us)

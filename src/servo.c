@@ -16,6 +16,7 @@ void servo_init(struct servo *s, const struct board *b, struct hal *hal)
     frame_rx_init(&s->rx, link_baud(b, s->regs.mem[REG_BAUD_RATE]));
     link_latch(s);
     motion_init(s); /* motor off; the goal starts at the present position (rule 1) */
+    hal_watchdog_start(s->hal); /* a hang resets the MCU, which comes up with the motor off */
 }
 
 void servo_rx_isr(struct servo *s, uint8_t byte)
@@ -27,6 +28,9 @@ void servo_poll(struct servo *s)
 {
     uint32_t now = hal_clock_us(s->hal);
     motion_poll(s, now);
+    /* Fed only while the control tick keeps time and this loop (the bus) runs. */
+    if (now - s->motion.tick_us < 10u * MOTION_TICK_US)
+        hal_watchdog_feed(s->hal);
     uint32_t irq = hal_irq_save(s->hal);
     bool rx_idle = frame_rx_idle(&s->rx, now);
     hal_irq_restore(s->hal, irq);

@@ -212,8 +212,17 @@ static void run_line(struct vbus *b, char **tok, int ntok)
         hal_host_reboot(&n->hal); /* the flash stays */
         n->hal.now_us = b->now_us;
         servo_init(&n->servo, n->servo.board, &n->hal);
-    } else if (strcmp(cmd, "fault") == 0 && ntok == 2) {
-        node_by_name(b, tok[0])->servo.live_err = (uint8_t)number(tok[1], 16);
+    } else if (strcmp(cmd, "sensor") == 0 && ntok == 3) {
+        struct hal *h = &node_by_name(b, tok[0])->hal;
+        long v = number(tok[2], 10);
+        if (strcmp(tok[1], "temperature") == 0)
+            h->temperature_dc = (int16_t)v; /* 0.1 degree C */
+        else if (strcmp(tok[1], "supply") == 0)
+            h->supply_mv = (uint16_t)v;
+        else if (strcmp(tok[1], "switches") == 0)
+            h->photo = (uint8_t)v;
+        else
+            fail("sensor ID temperature|supply|switches VALUE");
     } else if (strcmp(cmd, "collisions") == 0 && ntok == 1) {
         if ((long)b->collisions != number(tok[0], 10))
             fail("%u collisions on the bus, expected %s", b->collisions, tok[0]);

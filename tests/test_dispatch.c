@@ -38,15 +38,21 @@ void motion_poll(struct servo *s, uint32_t now_us)
     (void)now_us;
 }
 
+void safety_packet_seen(struct servo *s)
+{
+    (void)s;
+}
+
 void motion_init(struct servo *s)
 {
     regs_set(&s->regs, REG_GOAL_POSITION, regs_present_position(&s->regs));
 }
 
-bool motion_write_allowed(const struct servo *s, uint8_t addr, uint8_t n)
+bool motion_write_allowed(const struct servo *s, uint8_t addr, const uint8_t *data, uint8_t n)
 {
     (void)s;
     (void)addr;
+    (void)data;
     (void)n;
     return true;
 }

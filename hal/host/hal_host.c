@@ -134,9 +134,29 @@ int16_t hal_temperature_dc(struct hal *h)
     return h->temperature_dc;
 }
 
+void hal_host_attach_board(struct hal *h, const struct board *b)
+{
+    if (!b->photo_switches)
+        return;
+    h->photo_sim = true;
+    h->sw1_deg = 0.0;
+    h->sw2_deg = b->variant == VARIANT_ARM ? 420.0 : b->max_angle_ddeg / 10.0;
+    h->motor.theta = 90.0 / 57.29577951308232;
+}
+
 uint8_t hal_photo_switches(struct hal *h)
 {
-    return h->photo;
+    if (!h->photo_sim)
+        return h->photo;
+    motor_sim_advance(&h->motor, h->now_us);
+    double deg = h->motor.theta * 57.29577951308232;
+    bool up = h->sw2_deg > h->sw1_deg;
+    uint8_t bits = 0;
+    if (up ? deg <= h->sw1_deg : deg >= h->sw1_deg)
+        bits |= 1u;
+    if (up ? deg >= h->sw2_deg : deg <= h->sw2_deg)
+        bits |= 2u;
+    return bits;
 }
 
 void hal_rs485_termination(struct hal *h, bool on)

@@ -7,6 +7,7 @@
 #include <stdint.h>
 
 #include "flash_sim.h"
+#include "board.h"
 #include "hal.h"
 #include "motor_sim.h"
 
@@ -33,7 +34,9 @@ struct hal {
     struct motor_sim motor; /* the plant: keeps turning across a reboot */
     uint16_t supply_mv;     /* sensors, set by tests */
     int16_t temperature_dc;
-    uint8_t photo;
+    uint8_t photo;          /* switch bits when photo_sim is off */
+    bool photo_sim;         /* switches follow the motor: */
+    double sw1_deg, sw2_deg; /* switch 1 reads high beyond sw1 (away from sw2), 2 beyond sw2 */
     bool termination;
     bool watchdog_started;
     uint32_t watchdog_feeds;
@@ -49,6 +52,11 @@ const struct hal_tx_byte *hal_host_tx(const struct hal *h, uint32_t i);
 /* Start and end of byte i of a transmission that began at t0 (10 bits per byte). */
 uint32_t hal_host_byte_start(uint32_t t0, uint32_t baud, uint32_t i);
 uint32_t hal_host_byte_end(uint32_t t0, uint32_t baud, uint32_t i);
+
+/* Fit the plant to a reference board: for boards with photo switches, switch 1 at the
+ * zero (negative) side at 0 degrees, switch 2 at the board's travel (arm: 420 degrees),
+ * and the shaft starting at 90 degrees, between them. */
+void hal_host_attach_board(struct hal *h, const struct board *b);
 
 /* Power cycle: the UART and clock state go, the flash stays (a cut is cleared). */
 void hal_host_reboot(struct hal *h);

@@ -16,6 +16,7 @@ uint8_t vbus_add(struct vbus *b, const struct board *bd, uint8_t id)
     uint8_t i = b->nodes++;
     struct vbus_node *n = &b->node[i];
     hal_host_init(&n->hal);
+    hal_host_attach_board(&n->hal, bd);
     n->hal.now_us = b->now_us;
     servo_init(&n->servo, bd, &n->hal);
     if (id) {
