@@ -15,11 +15,9 @@
  *   gives the times). Bytes of several servos are merged in that order, each servo's in
  *   its own order.
  * - Servos do not hear each other (only the host's bytes reach them).
- * - The motor of each servo is the host HAL's model (hal/host/motor_sim.c), integrated
- *   up to the real clock. Photo switches (arm, wrist, finger): switch 1 at the zero
- *   (negative) end of travel, 90 degrees below the power-up position; switch 2 at the
- *   board's range + 60 degrees from switch 1 (420 degrees on the arm). Each reads 1 from
- *   its position outward. The shaft starts at the power-up position at every start.
+ * - The motor and the photo switches of each servo are the host HAL's plant
+ *   (hal_host_attach_board(): arm switches at 0 and 420 degrees, the shaft starting at
+ *   90), integrated up to the real clock. The shaft starts there at every start.
  * - --state-dir: each servo's simulated flash lives in DIR/servo-<ID>-<variant>.flash
  *   (ID as given on the command line), loaded before servo_init() and written back page
  *   by page (pwrite of the changed 1 KiB page in place) right after every flash
@@ -59,8 +57,6 @@
 #define SIM_CONFIG_US 1000000u    /* virtual time reserved for configuring new servos */
 #define SIM_OUT_MAX (1u << 20)    /* bytes queued for a client that does not read */
 #define SIM_FLASH_BYTES (HAL_FLASH_PAGES * HAL_FLASH_PAGE_BYTES)
-#define SIM_SWITCH1_DEG (-90.0)   /* photo switch 1, from the power-up position */
-#define SIM_SWITCH2_EXTRA_DEG 60.0 /* switch 2 lies this far beyond the board's range */
 
 static const char usage[] =
     "usage: servo-sim --listen HOST:PORT [--servo ID:VARIANT]... [--state-dir DIR]";
@@ -208,22 +204,10 @@ static bool flash_blank(const struct sim_servo *v)
 
 /* ---- Servos ---------------------------------------------------------------------- */
 
-/* The photo switches seen from where the simulated shaft is now (see the top). */
-static void photo_update(struct sim_servo *v, uint32_t now)
-{
-    if (!v->board->photo_switches)
-        return;
-    motor_sim_advance(&v->hal.motor, now);
-    double deg = v->hal.motor.theta * (180.0 / 3.14159265358979323846);
-    double sw2 = SIM_SWITCH1_DEG + v->board->max_angle_ddeg / 10.0 + SIM_SWITCH2_EXTRA_DEG;
-    v->hal.photo = (uint8_t)((deg <= SIM_SWITCH1_DEG ? 1u : 0u) | (deg >= sw2 ? 2u : 0u));
-}
-
 /* Run one servo's main loop at now; dispatch frames that wait while the link is free. */
 static void servo_step(struct sim_servo *v, uint32_t now)
 {
     v->hal.now_us = now;
-    photo_update(v, now);
     for (int i = 0; i < 8; i++) {
         servo_poll(&v->servo);
         if (v->servo.link.state != LINK_IDLE || !frame_rx_peek(&v->servo.rx))
@@ -264,6 +248,7 @@ static void servo_add(uint8_t id, const struct board *b, const char *state_dir)
     v->state_fd = -1;
     servos[servo_count++] = v;
     hal_host_init(&v->hal);
+    hal_host_attach_board(&v->hal, b); /* the motor and switches of this board */
     if (state_dir)
         state_open(v, state_dir); /* before servo_init: the store reads the flash there */
     bool blank = flash_blank(v);
@@ -447,6 +432,28 @@ static void client_close(int *client)
     out_len = 0;
 }
 
+/* Feed what the client sent to every servo, as it arrives; all of it if drain (else one
+ * read); close the client at its end of stream. */
+static void client_input(int *client, uint32_t now, bool drain)
+{
+    do {
+        uint8_t in[4096];
+        ssize_t n = recv(*client, in, sizeof in, MSG_DONTWAIT);
+        if (n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)) {
+            client_close(client);
+            return;
+        }
+        if (n < 0)
+            return;
+        for (unsigned i = 0; i < servo_count; i++) {
+            struct sim_servo *v = servos[i];
+            servo_step(v, now); /* bring the servo up to the arrival time */
+            for (ssize_t k = 0; k < n; k++)
+                servo_rx_isr(&v->servo, in[k]);
+        }
+    } while (drain);
+}
+
 int main(int argc, char **argv)
 {
     struct sockaddr_in sa;
@@ -534,7 +541,13 @@ int main(int argc, char **argv)
             break;
         now = sim_now();
 
-        if (r > 0 && (pfd[0].revents & POLLIN)) {
+        bool incoming = r > 0 && (pfd[0].revents & POLLIN);
+        /* The client's input first (to its end, with a new client waiting), so a client
+         * that closed and reconnected at once is not taken for a second client. */
+        if (client >= 0 && ((r > 0 && (pfd[1].revents & (POLLIN | POLLHUP | POLLERR))) ||
+                            incoming))
+            client_input(&client, now, incoming);
+        if (incoming) {
             int fd = accept4(lfd, 0, 0, SOCK_NONBLOCK | SOCK_CLOEXEC);
             if (fd >= 0 && client >= 0) {
                 close(fd); /* one client at a time */
@@ -542,20 +555,6 @@ int main(int argc, char **argv)
                 int one = 1;
                 setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
                 client = fd;
-            }
-        }
-        if (client >= 0 && r > 0 && (pfd[1].revents & (POLLIN | POLLHUP | POLLERR))) {
-            uint8_t in[4096];
-            ssize_t n = recv(client, in, sizeof in, MSG_DONTWAIT);
-            if (n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)) {
-                client_close(&client);
-            } else if (n > 0) {
-                for (unsigned i = 0; i < servo_count; i++) {
-                    struct sim_servo *v = servos[i];
-                    servo_step(v, now); /* bring the servo up to the arrival time */
-                    for (ssize_t k = 0; k < n; k++)
-                        servo_rx_isr(&v->servo, in[k]);
-                }
             }
         }
         for (unsigned i = 0; i < servo_count; i++)
