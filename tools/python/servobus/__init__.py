@@ -1,0 +1,23 @@
+"""servobus: host SDK for the D5 5D smart bus servos (PROTOCOL.md), on a serial port or
+on servo-sim over TCP.
+
+    from servobus import Bus
+    with Bus("tcp://127.0.0.1:4242") as bus:
+        print(bus.scan())
+        bus.write(1, "goal_position", 90)
+"""
+
+from .bus import Bus, Found, HomingStatus
+from .errors import (BusTimeout, ChecksumError, IdTaken, InstructionError, MotionRefused,
+                     ProtocolError, RangeError, ServoBusError, ServoFault, StatusError,
+                     UnknownRegister)
+from .protocol import BROADCAST
+from .registers import REGISTERS, VARIANTS, register
+
+__all__ = [
+    "Bus", "Found", "HomingStatus", "BROADCAST", "REGISTERS", "VARIANTS", "register",
+    "ServoBusError", "BusTimeout", "ProtocolError", "RangeError", "UnknownRegister",
+    "IdTaken", "StatusError", "InstructionError", "MotionRefused", "ChecksumError",
+    "ServoFault",
+]
+__version__ = "0.1.0"

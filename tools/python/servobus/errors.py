@@ -1,0 +1,91 @@
+"""Exceptions of the servo bus SDK. Every one derives from ServoBusError and carries a
+message that says what happened and what to check."""
+
+from .protocol import ERR_CHECKSUM, ERR_INSTRUCTION, describe_err
+
+
+class ServoBusError(Exception):
+    """Base class of everything the SDK raises about the bus or a servo."""
+
+
+class BusTimeout(ServoBusError):
+    """No (complete) status packet arrived in time."""
+
+    def __init__(self, message, servo_id=None):
+        super().__init__(message)
+        self.servo_id = servo_id
+
+
+class ProtocolError(ServoBusError):
+    """A status packet arrived but is malformed or corrupt."""
+
+
+class RangeError(ServoBusError, ValueError):
+    """A value is outside the register's range; nothing was sent."""
+
+
+class UnknownRegister(ServoBusError, KeyError):
+    """No register of that name or address."""
+
+    def __str__(self):  # KeyError would quote the message
+        return str(self.args[0])
+
+
+class IdTaken(ServoBusError):
+    """set_id() refused: another servo already answers at the new ID."""
+
+
+class StatusError(ServoBusError):
+    """A status packet whose ERR byte reports a problem.
+
+    Attributes: servo_id, err (the ERR byte), bits (list of bit names), what (the
+    request), params (the answer's parameters, if any)."""
+
+    def __init__(self, servo_id, err, what, hint="", params=b""):
+        self.servo_id = servo_id
+        self.err = err
+        self.what = what
+        self.params = params
+        self.bits = describe_err(err)
+        message = "ID %d %s %s (ERR 0x%02X: %s)" % (
+            servo_id, self.verb, what, err, ", ".join(self.bits))
+        if hint:
+            message += ": " + hint
+        super().__init__(message)
+
+    verb = "reports a problem with"
+
+
+class InstructionError(StatusError):
+    """ERR bit 5: the servo refused the instruction; nothing of it was applied."""
+
+    verb = "refused"
+
+
+class MotionRefused(InstructionError):
+    """ERR bit 5 on a motion instruction (trajectory action, custom move, start/end,
+    homing): the servo cannot run that motion now."""
+
+
+class ChecksumError(StatusError):
+    """ERR bit 4: the servo received the packet with a wrong checksum."""
+
+    verb = "received a corrupted"
+
+
+class ServoFault(StatusError):
+    """ERR bits 0-3 or 6: a live condition (over-temperature, over-current, voltage,
+    stall). The request itself was carried out; params holds the answer's data."""
+
+    verb = "reports a fault while answering"
+
+
+def status_error(servo_id, err, what, hint="", params=b"", motion=False):
+    """The exception for an ERR byte, most serious first (instruction, checksum, fault)."""
+    if err & ERR_INSTRUCTION:
+        return (MotionRefused if motion else InstructionError)(servo_id, err, what, hint)
+    if err & ERR_CHECKSUM:
+        return ChecksumError(servo_id, err, what,
+                             "noise on the wire: check wiring, termination (register 20) "
+                             "and that the host and the servo use the same baud rate")
+    return ServoFault(servo_id, err, what, hint, params)

@@ -1,0 +1,150 @@
+"""Wire format of the servo bus (PROTOCOL.md §2-§4): packet builder, status packet
+parser, instruction codes and ERR bits. Pure functions, no I/O."""
+
+HEADER = b"\xD5\x5D"
+BROADCAST = 0xFE
+ID_MAX = 253
+
+PING = 0x01
+READ = 0x02
+WRITE = 0x03
+REG_WRITE = 0x04
+ACTION = 0x05
+RESET = 0x06
+START_END = 0x07
+TRAJ_WRITE = 0x0A
+TRAJ_ACTION = 0x0B
+SYNC_WRITE = 0x83
+CUSTOM = 0xFF
+
+INSTRUCTION_NAMES = {
+    PING: "PING", READ: "READ", WRITE: "WRITE", REG_WRITE: "REG WRITE", ACTION: "ACTION",
+    RESET: "RESET", START_END: "START/END", TRAJ_WRITE: "TRAJECTORY WRITE",
+    TRAJ_ACTION: "TRAJECTORY ACTION", SYNC_WRITE: "SYNC WRITE", CUSTOM: "CUSTOM",
+}
+
+ERR_OVER_TEMPERATURE = 0x01
+ERR_OVER_CURRENT = 0x02
+ERR_OVER_VOLTAGE = 0x04
+ERR_UNDER_VOLTAGE = 0x08
+ERR_CHECKSUM = 0x10
+ERR_INSTRUCTION = 0x20
+ERR_STALL = 0x40
+ERR_FAULTS = (ERR_OVER_TEMPERATURE | ERR_OVER_CURRENT | ERR_OVER_VOLTAGE |
+              ERR_UNDER_VOLTAGE | ERR_STALL)
+
+ERR_BITS = [
+    (ERR_STALL, "stall (commanded motion, no movement, high current)"),
+    (ERR_INSTRUCTION, "instruction error"),
+    (ERR_CHECKSUM, "checksum error"),
+    (ERR_UNDER_VOLTAGE, "under-voltage"),
+    (ERR_OVER_VOLTAGE, "over-voltage"),
+    (ERR_OVER_CURRENT, "over-current (above register 12)"),
+    (ERR_OVER_TEMPERATURE, "over-temperature (above register 11)"),
+]
+
+# Time of one 7-byte answer plus two byte-times, in bytes (§4.1 broadcast PING slots).
+SLOT_BYTES = 9
+# Longest return delay: register 5 = 255 x 500 us.
+MAX_RETURN_DELAY_S = 0.1275
+
+
+def describe_err(err):
+    """Names of the bits set in an ERR byte."""
+    names = [name for bit, name in ERR_BITS if err & bit]
+    if err & 0x80:
+        names.append("bit 7 (unused, should be 0)")
+    return names or ["no error"]
+
+
+def checksum(body):
+    """Plain 8-bit sum (not inverted) of ID, LEN, INS/ERR and the parameters."""
+    return sum(body) & 0xFF
+
+
+def instruction(servo_id, ins, params=b""):
+    """`D5 5D ID LEN INS P1..Pn CHK`."""
+    params = bytes(params)
+    if not 0 <= servo_id <= 0xFE:
+        raise ValueError("ID %r is not 0-253 or 254 (broadcast)" % (servo_id,))
+    if len(params) > 253:
+        raise ValueError("%d parameters do not fit in one packet (253 at most)" % len(params))
+    body = bytes([servo_id, len(params) + 2, ins]) + params
+    return HEADER + body + bytes([checksum(body)])
+
+
+class StatusPacket:
+    """One status packet: id, err (the byte after LEN), params, raw bytes, ok (checksum)."""
+
+    __slots__ = ("id", "err", "params", "raw", "ok")
+
+    def __init__(self, raw):
+        self.raw = bytes(raw)
+        self.id = raw[2]
+        self.err = raw[4]
+        self.params = self.raw[5:-1]
+        self.ok = checksum(self.raw[2:-1]) == raw[-1]
+
+    def ping_err(self):
+        """For a PING answer `03 01 ERR`, the live ERR byte; otherwise the ERR byte."""
+        if len(self.params) == 1 and self.err == 0x01:
+            return self.params[0]
+        return self.err
+
+    def __repr__(self):
+        return "StatusPacket(%s)" % self.raw.hex(" ")
+
+
+class StatusParser:
+    """Cuts a byte stream into status packets, resynchronising on `D5 5D`."""
+
+    def __init__(self):
+        self.buf = bytearray()
+        self.skipped = 0  # bytes dropped while hunting for a header
+
+    def feed(self, data):
+        """Add bytes; return the complete packets now available."""
+        self.buf += data
+        out = []
+        while True:
+            i = self.buf.find(HEADER)
+            if i < 0:
+                keep = 1 if self.buf[-1:] == HEADER[:1] else 0
+                self.skipped += len(self.buf) - keep
+                del self.buf[:len(self.buf) - keep]
+                return out
+            if i:
+                self.skipped += i
+                del self.buf[:i]
+            if len(self.buf) < 4:
+                return out
+            length = self.buf[3]
+            if length < 2 or self.buf[2] == 0xFF:
+                self.skipped += 2
+                del self.buf[:2]
+                continue
+            total = 4 + length
+            if len(self.buf) < total:
+                return out
+            pkt = StatusPacket(self.buf[:total])
+            if not pkt.ok:
+                # A bad checksum may mean a lost byte: resynchronise just after the header
+                # so a packet starting inside this one is still found.
+                out.append(pkt)
+                del self.buf[:2]
+                continue
+            out.append(pkt)
+            del self.buf[:total]
+
+    def pending(self):
+        """Bytes of an incomplete packet held back."""
+        return len(self.buf)
+
+
+def byte_time(baud):
+    """Seconds per byte on the wire (8N1: 10 bits)."""
+    return 10.0 / baud
+
+
+def u16(value):
+    return bytes([value & 0xFF, (value >> 8) & 0xFF])
