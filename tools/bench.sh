@@ -54,3 +54,5 @@ for w in tick replan; do
 done
 echo
 "$build/tools/motion_trace"
+echo
+"$build/tools/bench_safety"

@@ -121,7 +121,8 @@ uint16_t hal_motor_current_ma(struct hal *h)
 {
     motor_sim_advance(&h->motor, h->now_us);
     double ma = h->motor.current * 1000.0;
-    return (uint16_t)(ma < 0 ? -ma : ma);
+    ma = (ma < 0 ? -ma : ma) + h->current_extra_ma;
+    return (uint16_t)(ma > 65535.0 ? 65535.0 : ma);
 }
 
 uint16_t hal_supply_mv(struct hal *h)

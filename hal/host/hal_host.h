@@ -33,6 +33,7 @@ struct hal {
     struct flash_sim flash; /* the store's flash; survives a simulated reboot */
     struct motor_sim motor; /* the plant: keeps turning across a reboot */
     uint16_t supply_mv;     /* sensors, set by tests */
+    uint16_t current_extra_ma; /* fault injection: a current spike on top of the motor's */
     int16_t temperature_dc;
     uint8_t photo;          /* switch bits when photo_sim is off */
     bool photo_sim;         /* switches follow the motor: */

@@ -29,6 +29,11 @@ static void step(struct motor_sim *m, double dt)
     m->current = (m->enabled && m->duty) ? (volts - back_emf) / p->resistance : 0.0;
     double torque = p->kt * m->current * p->gear - p->viscous * m->omega;
     double friction = p->coulomb;
+    if (m->blocked) {
+        m->omega = 0.0;
+        m->current = m->enabled ? volts / p->resistance : 0.0;
+        return;
+    }
     if (fabs(m->omega) < 1e-6 && fabs(torque) <= friction) {
         m->omega = 0.0; /* static friction holds */
         return;

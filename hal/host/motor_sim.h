@@ -29,6 +29,7 @@ struct motor_sim {
     uint32_t last_us;
     bool started;
     double travel;  /* total |angle| turned, rad (for tests: "did it move?") */
+    bool blocked;   /* fault injection: the shaft is jammed */
 };
 
 /* A 12 V gearmotor whose output reaches about 1000 deg/s with no load. */
