@@ -204,14 +204,26 @@ static bool flash_blank(const struct sim_servo *v)
 
 /* ---- Servos ---------------------------------------------------------------------- */
 
-/* Run one servo's main loop at now; dispatch frames that wait while the link is free. */
+/* Run one servo's main loop at now; dispatch frames that wait while the link is free.
+ * An answer that fell due since the last step is started at its due time first, as the
+ * MCU's own clock would start it: this loop may run late on a loaded host, and a late
+ * start would slide one servo's broadcast-PING slot into the next one's. */
 static void servo_step(struct sim_servo *v, uint32_t now)
 {
+    uint32_t due = v->servo.link.due_us;
+    if (v->servo.link.state == LINK_WAITING && (int32_t)(due - v->hal.now_us) > 0 &&
+        (int32_t)(now - due) > 0) {
+        v->hal.now_us = due;
+        servo_poll(&v->servo);
+    }
     v->hal.now_us = now;
     for (int i = 0; i < 8; i++) {
         servo_poll(&v->servo);
-        if (v->servo.link.state != LINK_IDLE || !frame_rx_peek(&v->servo.rx))
-            break;
+        const struct link *l = &v->servo.link;
+        bool next_frame = l->state == LINK_IDLE && frame_rx_peek(&v->servo.rx);
+        bool answer_due = l->state == LINK_WAITING && (int32_t)(now - l->due_us) >= 0;
+        if (!next_frame && !answer_due)
+            break; /* else go on at once: no answer waits for the next tick */
     }
     state_sync(v); /* also catches flash work done outside the wrapped calls */
 }
