@@ -56,3 +56,4 @@ echo
 "$build/tools/motion_trace"
 echo
 "$build/tools/bench_safety"
+/usr/bin/python3 tools/bench_sim.py "$build"
