@@ -54,6 +54,7 @@
 
 #define SIM_SERVOS_MAX 254u       /* IDs 0-253 */
 #define SIM_TICK_US 500u          /* main-loop period when nothing is due sooner */
+#define SIM_CATCH_UP_US 200000u   /* a servo this far behind real time jumps */
 #define SIM_CONFIG_US 1000000u    /* virtual time reserved for configuring new servos */
 #define SIM_OUT_MAX (1u << 20)    /* bytes queued for a client that does not read */
 #define SIM_FLASH_BYTES (HAL_FLASH_PAGES * HAL_FLASH_PAGE_BYTES)
@@ -206,9 +207,9 @@ static bool flash_blank(const struct sim_servo *v)
 
 /* Run one servo's main loop at now; dispatch frames that wait while the link is free.
  * An answer that fell due since the last step is started at its due time first, as the
- * MCU's own clock would start it: this loop may run late on a loaded host, and a late
- * start would slide one servo's broadcast-PING slot into the next one's. */
-static void servo_step(struct sim_servo *v, uint32_t now)
+ * MCU's own clock would start it: a late start would slide one servo's broadcast-PING
+ * slot into the next one's. */
+static void servo_run_at(struct sim_servo *v, uint32_t now)
 {
     uint32_t due = v->servo.link.due_us;
     if (v->servo.link.state == LINK_WAITING && (int32_t)(due - v->hal.now_us) > 0 &&
@@ -225,6 +226,19 @@ static void servo_step(struct sim_servo *v, uint32_t now)
         if (!next_frame && !answer_due)
             break; /* else go on at once: no answer waits for the next tick */
     }
+}
+
+/* Bring one servo up to now. On a loaded host this loop may wake late; the servo then
+ * catches up in steps of SIM_TICK_US of its own clock, so its control loop still sees
+ * the motor at its own pace (a jump would look like a stall or a current spike to the
+ * firmware). Beyond SIM_CATCH_UP_US behind (the process was stopped) it jumps. */
+static void servo_step(struct sim_servo *v, uint32_t now)
+{
+    if ((int32_t)(now - v->hal.now_us) > (int32_t)SIM_CATCH_UP_US)
+        v->hal.now_us = now - SIM_CATCH_UP_US;
+    while ((int32_t)(now - v->hal.now_us) > (int32_t)SIM_TICK_US)
+        servo_run_at(v, v->hal.now_us + SIM_TICK_US);
+    servo_run_at(v, now);
     state_sync(v); /* also catches flash work done outside the wrapped calls */
 }
 

@@ -41,6 +41,28 @@ def _show(reg, value, resolution):
     return "%s = %s" % (reg.name, "-" if value is None else reg.format(value, resolution))
 
 
+def _heartbeat_note(bus, servo_id):
+    """Motion started by a one-shot command stops 500 ms after the last packet when the
+    heartbeat (register 17, on by factory default) is enabled: say so."""
+    try:
+        on = bus.read(servo_id, "heartbeat_enable")
+    except ServoBusError:
+        return
+    if on:
+        print("note: heartbeat on (register 17): ID %d stops 500 ms after the last packet; "
+              "use --wait or `monitor` to keep talking, or `set heartbeat_enable 0`" %
+              servo_id, file=sys.stderr)
+
+
+def _wait_still(bus, servo_id, timeout):
+    """Poll until the servo reports moving 0 (the polling keeps the heartbeat alive)."""
+    deadline = time.monotonic() + timeout
+    while bus.read(servo_id, "moving"):
+        if time.monotonic() > deadline:
+            raise ServoBusError("ID %d still moving after %.0f s" % (servo_id, timeout))
+        time.sleep(0.05)
+
+
 # ---- commands -----------------------------------------------------------------------
 
 def cmd_scan(bus, args):
@@ -143,6 +165,7 @@ def cmd_move(bus, args):
                                     "moving %d)" % (args.id, args.timeout_wait, state[reg.name],
                                                     state["moving"]))
             time.sleep(0.05)
+    _heartbeat_note(bus, args.id)
     return 0
 
 
@@ -152,6 +175,8 @@ def cmd_speed(bus, args):
     speed = reg.parse(args.speed, resolution)
     bus.set_speed(args.id, speed)
     print("ID %d: %s" % (args.id, _show(reg, speed, resolution)))
+    if speed:
+        _heartbeat_note(bus, args.id)
     return 0
 
 
@@ -185,6 +210,13 @@ def cmd_traj(bus, args):
     if not args.no_run:
         bus.trajectory_action(args.id)
         print("ID %d: trajectory started" % args.id)
+        if args.wait:
+            _wait_still(bus, args.id, args.timeout_wait)
+            reg = bus.position_register(args.id)
+            print("ID %d: trajectory done at %s" % (
+                args.id, reg.format(bus.read(args.id, reg), bus.resolution(args.id))))
+        else:
+            _heartbeat_note(bus, args.id)
     return 0
 
 
@@ -309,6 +341,8 @@ def _parser():
     sp = add("traj", cmd_traj, "write a trajectory and run it")
     sp.add_argument("points", nargs="+", metavar="ANGLE:SPEED")
     sp.add_argument("--no-run", action="store_true", help="store it only")
+    sp.add_argument("--wait", action="store_true", help="wait until it has run")
+    sp.add_argument("--wait-timeout", dest="timeout_wait", type=float, default=60.0)
     sp.add_argument("--point-size", type=int, choices=(3, 4), default=None)
     sp = add("set-id", cmd_set_id, "give the servo a new ID (refused if one is taken)")
     sp.add_argument("new_id", type=_int_id, metavar="NEW_ID")

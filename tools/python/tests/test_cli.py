@@ -68,6 +68,7 @@ def test_negative_values(shared_sim):
     assert "moving_speed = -45 (-45 deg/s)" in ok(*port, "speed", "-45deg/s")
     assert ok(*port, "get", "moving_speed", "--raw").strip() == "-45"
     assert "moving_speed = 0 (stop)" in ok(*port, "stop")
+    assert "heartbeat" not in servoctl(*port, "stop")[2]
 
 
 def test_dump_names_every_register(shared_sim):
@@ -92,6 +93,10 @@ def test_traj_and_move(shared_sim):
     err = fails(1, *port, "traj", "10:0")
     assert "speed 0" in err
     assert "goal 0 (0 deg), speed 90 (90 deg/s)" in ok(*port, "move", "0", "--speed", "90")
+    out = ok(*port, "traj", "20:360", "0:360", "--wait")
+    assert "trajectory started" in out and "trajectory done at" in out
+    rc, out, err = servoctl(*port, "move", "10")
+    assert rc == 0 and "heartbeat on (register 17)" in err
 
 
 def test_home_writes_register_24(shared_sim):
