@@ -15,6 +15,9 @@
  *   gives the times). Bytes of several servos are merged in that order, each servo's in
  *   its own order.
  * - Servos do not hear each other (only the host's bytes reach them).
+ * - The loop wakes at least every SIM_TICK_US. When it wakes late (a loaded host), each
+ *   servo catches up in steps of SIM_TICK_US of its own clock, and an answer that fell
+ *   due meanwhile starts at its due time, as the MCU would have run them.
  * - The motor and the photo switches of each servo are the host HAL's plant
  *   (hal_host_attach_board(): arm switches at 0 and 420 degrees, the shaft starting at
  *   90), integrated up to the real clock. The shaft starts there at every start.
@@ -36,7 +39,6 @@
 #include <signal.h>
 #include <stdarg.h>
 #include <stdbool.h>
-#include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>

@@ -155,24 +155,27 @@ class Register:
         ('90', '-100', '0x20') or a physical quantity with its unit ('90deg', '45 deg/s',
         '8ms', '2.5A', '60C'). Raises RangeError for what does not fit."""
         text = str(text).strip()
-        m = re.fullmatch(r"([-+]?(?:\d+\.?\d*|\.\d+))\s*([A-Za-z/^°2]+)", text)
+        value = None
+        for base in (0, 10):  # 0x20, 0b101; then 010 as decimal
+            try:
+                value = int(text, base)
+                break
+            except ValueError:
+                pass
+        m = None if value is not None else re.fullmatch(
+            r"([-+]?(?:\d+\.?\d*|\.\d+))\s*([A-Za-z/^°2]+)", text)
         if m:
             number, unit = float(m.group(1)), m.group(2).replace("°", "deg").lower()
             factor, want = self.scale(resolution)
             aliases = {want.lower(), want.lower().replace("^", "")}
-            if unit == "c" and want == "C":
-                aliases.add("c")
             if factor is None or unit not in aliases:
                 raise RangeError("%s: unit '%s' does not fit; %s" % (
                     self.name, m.group(2),
                     "give a plain number" if factor is None else "use %s or a plain "
                     "number of %s" % (want, UNIT_TEXT[self.unit])))
             value = round(number / factor)
-        else:
-            try:
-                value = int(text, 0)
-            except ValueError:
-                raise RangeError("%s: '%s' is not a number" % (self.name, text)) from None
+        elif value is None:
+            raise RangeError("%s: '%s' is not a number" % (self.name, text))
         self.encode(value)  # range check
         return value
 

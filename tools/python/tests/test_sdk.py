@@ -91,6 +91,10 @@ def test_units_and_signs():
     assert register("present_speed").decode(0xFFFE) == -2
     assert temp.parse("-5C") == -5 and temp.encode(-5) == 0x85
     assert register("return_delay").parse("8ms") == 16
+    assert register("unload_conditions").parse("0x22") == 0x22
+    assert register("return_delay").parse(" -0") == 0
+    with pytest.raises(RangeError, match="not a number"):
+        register("return_delay").parse("eight")
     assert register("current_limit").format(30) == "30 (3 A)"
     assert goal.format(900, resolution=1) == "900 (90 deg)"
     with pytest.raises(RangeError, match="unit 'ms' does not fit"):
