@@ -2,7 +2,15 @@
 # what is missing first (tools/install-deps.sh).
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 
-.PHONY: all deps host stm32 test bench demo docs clean
+.PHONY: all deps host stm32 test bench demo docs clean firmware flash
+
+# Firmware images: every reference board (board/<name>/), or the one `make flash` writes.
+BOARDS := base foot arm wrist finger
+BOARD ?= arm
+PORT ?= /dev/ttyUSB0
+fw_build = { test -f build/stm32-$(1)/CMakeCache.txt || cmake -S . -B build/stm32-$(1) \
+	--toolchain cmake/arm-none-eabi.cmake -DBOARD=$(1) -DCMAKE_BUILD_TYPE=MinSizeRel \
+	>/dev/null; } && cmake --build build/stm32-$(1) -j $(JOBS) -- --no-print-directory
 
 all: host stm32
 
@@ -17,8 +25,31 @@ stm32: deps
 	cmake --preset stm32
 	cmake --build --preset stm32 -j $(JOBS)
 
-test: host stm32
+test: host stm32 firmware
 	ctest --preset host -j $(JOBS)
+
+# build/stm32-<board>/servo-<board>.{elf,bin,hex,map}; the build fails past the budget.
+firmware: deps
+	@for b in $(BOARDS); do $(call fw_build,$$b) || exit 1; done
+	@echo
+	@echo "board    flash B  of 32 KiB    RAM B  of 6 KiB   (vectors + code/data + bss + stack)"
+	@for b in $(BOARDS); do cat build/stm32-$$b/servo-$$b.size; done | \
+	    awk '{ printf "%-7s %7d  %6.1f%%    %6d  %6.1f%%    (%d + %d + %d + %d)\n", \
+	           $$1, $$2, 100 * $$2 / 32768, $$3, 100 * $$3 / 6144, $$4, $$5, $$6, $$7 }'
+
+# Write BOARD's image over the STM32 serial bootloader (BOOT0 high, then reset): the
+# wiring is in board/README.md. The store's pages at the top of flash are left alone.
+flash: deps
+	@$(call fw_build,$(BOARD))
+	@img=build/stm32-$(BOARD)/servo-$(BOARD).bin; \
+	pages=$$(( ($$(stat -c %s $$img) + 1023) / 1024 )); \
+	cmd="stm32flash -b 115200 -e $$pages -w $$img -v -g 0x08000000 $(PORT)"; \
+	echo "$$cmd"; \
+	command -v stm32flash >/dev/null || { echo "make flash: stm32flash is not" \
+	    "installed (Debian: apt-get install stm32flash)" >&2; exit 1; }; \
+	[ -c "$(PORT)" ] || { echo "make flash: no serial port $(PORT): plug in the" \
+	    "USB-UART adapter or give PORT=/dev/ttyUSBn" >&2; exit 1; }; \
+	$$cmd
 
 bench: deps
 	cmake --preset bench

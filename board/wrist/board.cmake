@@ -1,0 +1,2 @@
+# The reference wrist board: its MCU, which picks the linker script in board/.
+set(BOARD_MCU stm32f103x8)

@@ -1,0 +1,148 @@
+/* clock.c - clock tree with fall-backs, the SysTick time base (hal_clock_us) and the
+ * interrupt mask of the core's critical sections (hal_irq_save/restore).
+ *
+ * A servo must boot on a bad crystal: every ready bit is waited for with a time-out, and
+ * the tree falls back HSE x 9 (72 MHz) -> HSI / 2 x 16 (64 MHz) -> HSI (8 MHz). The
+ * frequencies that result are kept in struct hal for the baud rate, PWM and time base. */
+#include "hal_stm32f1.h"
+#include "stm32f1_regs.h"
+
+/* Spins of a ready-bit wait: at least ~20 ms on the 8 MHz HSI (HSE start-up is 2 ms
+ * typical); PLL lock takes ~200 us. */
+#define HSE_SPINS 40000u
+#define PLL_SPINS 10000u
+
+/* QEMU's stm32vldiscovery models no RCC (it reads 0) and clocks the core at 24 MHz. */
+#define NO_RCC_HZ 24000000u
+
+static bool wait_set(reg32 *r, uint32_t mask, uint32_t want, uint32_t spins)
+{
+    while (spins--)
+        if ((*r & mask) == want)
+            return true;
+    return false;
+}
+
+/* Start the PLL with the given source and multiplier and switch SYSCLK to it. */
+static bool pll_start(uint32_t cfgr)
+{
+    RCC->cfgr = cfgr; /* SW still HSI: source, multiplier, bus prescalers */
+    RCC->cr |= RCC_CR_PLLON;
+    if (!wait_set(&RCC->cr, RCC_CR_PLLRDY, RCC_CR_PLLRDY, PLL_SPINS)) {
+        RCC->cr &= ~RCC_CR_PLLON;
+        return false;
+    }
+    RCC->cfgr = cfgr | RCC_CFGR_SW_PLL;
+    if (!wait_set(&RCC->cfgr, RCC_CFGR_SWS_MASK, RCC_CFGR_SWS_PLL, PLL_SPINS)) {
+        RCC->cfgr = cfgr; /* back to HSI */
+        RCC->cr &= ~RCC_CR_PLLON;
+        return false;
+    }
+    return true;
+}
+
+/* ADC clock prescaler: the smallest of /2, /4, /6, /8 that keeps the ADC <= 14 MHz. */
+static uint32_t adcpre(uint32_t pclk2)
+{
+    uint32_t code = 0;
+    while (code < 3u && pclk2 / (2u * (code + 1u)) > 14000000u)
+        code++;
+    return code << RCC_CFGR_ADCPRE_SHIFT;
+}
+
+void clock_init(struct hal *h)
+{
+    /* Two wait states and the prefetch buffer before anything runs faster than 24 MHz;
+     * harmless at 8 MHz should the PLL never come. */
+    FLASH->acr = FLASH_ACR_PRFTBE | FLASH_ACR_LATENCY(2);
+    uint32_t bus = RCC_CFGR_PPRE1_DIV2; /* APB1 <= 36 MHz; AHB and APB2 undivided */
+
+    h->clock_source = CLOCK_HSI;
+    RCC->cr |= RCC_CR_HSEON;
+    if (wait_set(&RCC->cr, RCC_CR_HSERDY, RCC_CR_HSERDY, HSE_SPINS) &&
+        pll_start(bus | adcpre(72000000u) | RCC_CFGR_PLLSRC_HSE | RCC_CFGR_PLLMUL(9))) {
+        h->clock_source = CLOCK_HSE_PLL;
+        RCC->cr |= RCC_CR_CSSON; /* a crystal that fails later raises NMI: reset */
+    } else {
+        RCC->cr &= ~RCC_CR_HSEON;
+        if (pll_start(bus | adcpre(64000000u) | RCC_CFGR_PLLMUL(16)))
+            h->clock_source = CLOCK_HSI_PLL;
+    }
+
+    switch (h->clock_source) {
+    case CLOCK_HSE_PLL:
+        h->sysclk_hz = 72000000u;
+        break;
+    case CLOCK_HSI_PLL:
+        h->sysclk_hz = 64000000u;
+        break;
+    default:
+        /* Plain HSI: no wait state, APB1 undivided. On silicon HSION cannot be off while
+         * HSI clocks the core, so a CR that reads 0 means there is no RCC at all. */
+        RCC->cfgr = adcpre(8000000u);
+        FLASH->acr = FLASH_ACR_PRFTBE | FLASH_ACR_LATENCY(0);
+        h->sysclk_hz = 8000000u;
+        if (RCC->cr == 0u) {
+            h->clock_source = CLOCK_NO_RCC;
+            h->sysclk_hz = NO_RCC_HZ;
+        }
+        break;
+    }
+    h->pclk2_hz = h->sysclk_hz;
+    bool div2 = h->sysclk_hz > 36000000u && h->clock_source != CLOCK_NO_RCC;
+    h->pclk1_hz = div2 ? h->sysclk_hz / 2u : h->sysclk_hz;
+    /* APB1 timers run at twice PCLK1 whenever APB1 is divided (RM0008 §7.2). */
+    h->tim_apb1_hz = div2 ? h->sysclk_hz : h->pclk1_hz;
+    h->cycles_per_us = h->sysclk_hz / 1000000u;
+}
+
+void clock_tick_start(struct hal *h)
+{
+    h->tick_reload = h->cycles_per_us * 1000u - 1u;
+    SCB->shp[SCB_SHP_SYSTICK] = PRIO_SYSTICK;
+    SYSTICK->rvr = h->tick_reload;
+    SYSTICK->cvr = 0;
+    SYSTICK->csr = SYSTICK_CSR_CLKSOURCE | SYSTICK_CSR_TICKINT | SYSTICK_CSR_ENABLE;
+}
+
+/* SysTick, 1 kHz, in RAM: the time base keeps running while the flash is busy. */
+RAMFUNC void systick_handler(void)
+{
+    hal_stm32.tick_us += 1000u;
+}
+
+/* Microseconds: the tick count plus the cycles SysTick has counted down since its last
+ * reload. If the tick is pending but its handler has not run (this runs with it
+ * masked, or before it), the counter has already wrapped: count that period here. */
+RAMFUNC uint32_t hal_clock_us(struct hal *h)
+{
+    for (;;) {
+        uint32_t base = h->tick_us;
+        uint32_t v = SYSTICK->cvr, cycles;
+        if (SCB->icsr & SCB_ICSR_PENDSTSET) {
+            v = SYSTICK->cvr;
+            /* At 0 the wrap has pended but not yet reloaded: one cycle short of it. */
+            cycles = v ? h->tick_reload + 1u + (h->tick_reload - v) : h->tick_reload;
+        } else {
+            cycles = h->tick_reload - v;
+        }
+        if (base == h->tick_us)
+            return base + cycles / h->cycles_per_us;
+    }
+}
+
+/* Mask USART1 (and anything at its priority or below) with BASEPRI; SysTick runs on. */
+uint32_t hal_irq_save(struct hal *h)
+{
+    (void)h;
+    uint32_t old;
+    __asm volatile("mrs %0, basepri" : "=r"(old));
+    __asm volatile("msr basepri_max, %0" ::"r"(PRIO_USART1) : "memory");
+    return old;
+}
+
+void hal_irq_restore(struct hal *h, uint32_t state)
+{
+    (void)h;
+    __asm volatile("msr basepri, %0" ::"r"(state) : "memory");
+}

@@ -1,0 +1,49 @@
+/* gpio.c - pins: configuration, levels, the board outputs' safe state, the photo
+ * switches and the RS485 terminator. */
+#include "hal_stm32f1.h"
+
+/* For GPIO_IN_PULL the output latch picks up (set it with gpio_write) or down. */
+void gpio_mode(uint8_t pin, uint32_t mode)
+{
+    if (pin == PIN_NONE)
+        return;
+    struct gpio_regs *g = GPIO(pin >> 4);
+    uint32_t n = pin & 15u, shift = (n & 7u) * 4u;
+    reg32 *cr = n < 8u ? &g->crl : &g->crh;
+    *cr = (*cr & ~(0xFu << shift)) | (mode << shift);
+}
+
+/* Outputs low first (bridge asleep, driver enable off, terminator out), then driven. */
+void gpio_init(void)
+{
+    RCC->apb2enr |= RCC_APB2ENR_IOPAEN | RCC_APB2ENR_IOPBEN | RCC_APB2ENR_IOPCEN;
+    static const uint8_t outputs[] = {BOARD_PIN_DRIVER_EN, BOARD_PIN_RS485_DE,
+                                      BOARD_PIN_RS485_TERM};
+    for (uint32_t i = 0; i < sizeof outputs; i++) {
+        gpio_write(outputs[i], false);
+        gpio_mode(outputs[i], GPIO_OUT_PP_2MHZ);
+    }
+    if (BOARD_PHOTO) {
+        /* Open-collector sensors: pulled toward "interrupted" if a wire comes off. */
+        gpio_write(BOARD_PIN_PHOTO1, BOARD_PHOTO_ACTIVE_HIGH);
+        gpio_write(BOARD_PIN_PHOTO2, BOARD_PHOTO_ACTIVE_HIGH);
+        gpio_mode(BOARD_PIN_PHOTO1, GPIO_IN_PULL);
+        gpio_mode(BOARD_PIN_PHOTO2, GPIO_IN_PULL);
+    }
+}
+
+uint8_t hal_photo_switches(struct hal *h)
+{
+    (void)h;
+    if (!BOARD_PHOTO)
+        return 0;
+    bool s1 = gpio_read(BOARD_PIN_PHOTO1) == BOARD_PHOTO_ACTIVE_HIGH;
+    bool s2 = gpio_read(BOARD_PIN_PHOTO2) == BOARD_PHOTO_ACTIVE_HIGH;
+    return (uint8_t)(s1 | (s2 << 1));
+}
+
+void hal_rs485_termination(struct hal *h, bool on)
+{
+    (void)h;
+    gpio_write(BOARD_PIN_RS485_TERM, on);
+}

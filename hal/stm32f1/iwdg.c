@@ -1,0 +1,27 @@
+/* iwdg.c - the independent watchdog: on its own ~40 kHz LSI clock, it resets the chip
+ * unless the main loop feeds it. Once started it cannot be stopped. */
+#include "hal_stm32f1.h"
+
+/* LSI / 32 with reload 312: 250 ms at the nominal 40 kHz (167-333 ms over the LSI's
+ * 30-60 kHz). The longest main-loop stall is a page erase, 40 ms at most. */
+#define IWDG_PR_DIV32 3u
+#define IWDG_RELOAD 312u
+
+void hal_watchdog_start(struct hal *h)
+{
+    (void)h;
+    IWDG->kr = IWDG_KEY_START; /* also starts the LSI */
+    IWDG->kr = IWDG_KEY_ACCESS;
+    IWDG->pr = IWDG_PR_DIV32;
+    IWDG->rlr = IWDG_RELOAD;
+    /* The new values cross into the LSI domain; bounded, an emulator may never clear. */
+    for (uint32_t spins = 100000u; spins && (IWDG->sr & (IWDG_SR_PVU | IWDG_SR_RVU)); spins--) {
+    }
+    IWDG->kr = IWDG_KEY_RELOAD;
+}
+
+void hal_watchdog_feed(struct hal *h)
+{
+    (void)h;
+    IWDG->kr = IWDG_KEY_RELOAD;
+}

@@ -1,0 +1,108 @@
+/* uart.c - USART1, half duplex through an RS485 transceiver: every received byte goes
+ * to servo_rx_isr() from the interrupt; a reply is sent from the caller's buffer by the
+ * same interrupt (TXE, then TC), with the driver enable asserted from the first byte
+ * until the last stop bit has left (TC). While sending, received bytes are the echo of
+ * our own (single-wire or RE-enabled transceivers) and are dropped.
+ *
+ * The interrupt handler and everything it calls live in RAM, so reception goes on at
+ * any baud while the store erases a flash page (the CPU stalls on flash reads). */
+#include "hal_stm32f1.h"
+#include "servo.h"
+#include "stm32f1_regs.h"
+
+/* Transmit steps, with USART1's interrupt masked or from within it: next byte while
+ * TXE, then release the driver on TC. Reading SR before writing DR is half of clearing
+ * TC, so TC is only seen once the last byte has left (an emulator that sends at once
+ * shows it at once, and the loop finishes in one call). */
+static RAMFUNC void tx_step(struct hal *h)
+{
+    for (;;) {
+        uint32_t sr = USART1->sr, cr1 = USART1->cr1;
+        if ((cr1 & USART_CR1_TXEIE) && (sr & USART_SR_TXE)) {
+            USART1->dr = h->tx_buf[h->tx_pos++];
+            if (h->tx_pos == h->tx_len)
+                USART1->cr1 = (cr1 & ~USART_CR1_TXEIE) | USART_CR1_TCIE;
+        } else if ((cr1 & USART_CR1_TCIE) && (sr & USART_SR_TC)) {
+            USART1->cr1 = cr1 & ~USART_CR1_TCIE;
+            gpio_write(BOARD_PIN_RS485_DE, false);
+            h->tx_active = 0;
+            return;
+        } else {
+            return;
+        }
+    }
+}
+
+RAMFUNC void usart1_handler(void)
+{
+    struct hal *h = &hal_stm32;
+    uint32_t sr = USART1->sr;
+    if (sr & (USART_SR_RXNE | USART_SR_ORE)) {
+        /* Reading DR after SR clears RXNE and the error flags (ORE, FE, NE, PE). */
+        uint8_t byte = (uint8_t)USART1->dr;
+        if (sr & USART_SR_ORE)
+            h->rx_overruns++; /* a byte before this one was lost; this one is good */
+        if (sr & USART_SR_FE)
+            h->rx_errors++; /* a broken byte (or a break): drop it */
+        else if (!h->tx_active)
+            servo_rx_isr(h->servo, byte);
+    }
+    tx_step(h);
+}
+
+void uart_init(struct hal *h)
+{
+    (void)h;
+    RCC->apb2enr |= RCC_APB2ENR_USART1EN;
+    gpio_write(BOARD_PIN_UART_RX, true); /* pull-up: an idle line reads high */
+    gpio_mode(BOARD_PIN_UART_RX, GPIO_IN_PULL);
+    gpio_mode(BOARD_PIN_UART_TX, GPIO_AF_PP_50MHZ);
+    USART1->cr2 = 0; /* 1 stop bit */
+    USART1->cr3 = 0;
+    USART1->brr = 0xFFFFu; /* the core sets the baud in servo_init() */
+    USART1->cr1 = USART_CR1_UE | USART_CR1_TE | USART_CR1_RE;
+}
+
+void uart_start(struct hal *h, struct servo *s)
+{
+    h->servo = s;
+    (void)USART1->sr;
+    (void)USART1->dr; /* anything received before the core was ready */
+    NVIC->ip[IRQ_USART1] = PRIO_USART1;
+    USART1->cr1 |= USART_CR1_RXNEIE;
+    NVIC->iser[IRQ_USART1 / 32u] = 1u << (IRQ_USART1 % 32u);
+}
+
+/* USART1 runs from PCLK2 with 16x oversampling: BRR = PCLK2 / baud, rounded. */
+void hal_uart_set_baud(struct hal *h, uint32_t baud)
+{
+    uint32_t div = (h->pclk2_hz + baud / 2u) / baud;
+    USART1->brr = div < 16u ? 16u : div > 0xFFFFu ? 0xFFFFu : div;
+}
+
+void hal_uart_send(struct hal *h, const uint8_t *buf, uint16_t len)
+{
+    if (len == 0u)
+        return;
+    uint32_t irq = hal_irq_save(h);
+    h->tx_buf = buf;
+    h->tx_len = len;
+    h->tx_pos = 0;
+    h->tx_active = 1;
+    gpio_write(BOARD_PIN_RS485_DE, true);
+    USART1->cr1 |= USART_CR1_TXEIE; /* the interrupt writes the first byte at once */
+    hal_irq_restore(h, irq);
+}
+
+/* Also steps the transmission from here, masked: an emulator without TXE/TC interrupts
+ * (QEMU 7.2's STM32 USART raises only RXNE) sends from here. On silicon the interrupt
+ * has always been first and this finds nothing to do. */
+bool hal_uart_tx_busy(struct hal *h)
+{
+    if (!h->tx_active)
+        return false;
+    uint32_t irq = hal_irq_save(h);
+    tx_step(h);
+    hal_irq_restore(h, irq);
+    return h->tx_active != 0u;
+}

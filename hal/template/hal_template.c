@@ -1,0 +1,189 @@
+/* hal_template.c - the porting checklist: every function of hal/hal.h, stubbed, with the
+ * context the core calls it from and what a port must guarantee. Copy this file to
+ * hal/<chip>/, fill in each function, and compare with hal/stm32f1/ (a complete port)
+ * and hal/host/ (the simulation the tests run on). The stm32 build compiles it (never
+ * links it), so its signatures follow hal.h.
+ *
+ * The whole port in one picture:
+ *   - Interrupt context: the UART receive interrupt calls servo_rx_isr(servo, byte) once
+ *     per byte, in order, and nothing else of the core. A time base interrupt (if the
+ *     clock needs one) only counts. Everything else runs in the main loop:
+ *         servo_init(&servo, &board_x, &hal);  then  for (;;) servo_poll(&servo);
+ *   - servo_init() starts the watchdog; servo_poll() feeds it. A port's main() adds
+ *     nothing to the loop except, at most, sleeping when it can prove nothing is due.
+ *   - Whatever the receive interrupt runs (its handler, servo_rx_isr, frame_rx_byte,
+ *     hal_clock_us) must keep running while the flash is being erased or programmed:
+ *     on parts whose CPU stalls on flash reads meanwhile, put that code, the vector
+ *     table and the flash wait loop in RAM (hal/stm32f1/README.md shows how).
+ *   - No floating point, no heap; every wait on hardware is bounded by a time-out, so
+ *     a missing peripheral (or an emulator without it) never hangs the boot. */
+#include "hal.h"
+
+struct hal {
+    int unused; /* the port's state: one static instance on a single-chip port */
+};
+
+/* Any context (main loop and the receive interrupt). Microseconds since boot, wrapping
+ * at 2^32, monotonic: a later call never returns an earlier time, also across the
+ * interrupt boundary (a tick interrupt that is pending but not yet serviced must be
+ * counted). Resolution 1 us or better; it times the 2 ms inter-byte gap, the return
+ * delay (500 us steps) and the 1 ms control tick. */
+uint32_t hal_clock_us(struct hal *h)
+{
+    (void)h;
+    return 0;
+}
+
+/* Main loop, never while a transmission is in progress (the core sets a new baud only
+ * after the last stop bit of the answer that carried the change). Takes effect for the
+ * next byte in both directions; 2400 to 1792000 baud (PROTOCOL.md §5.2), 8N1. */
+void hal_uart_set_baud(struct hal *h, uint32_t baud)
+{
+    (void)h;
+    (void)baud;
+}
+
+/* Main loop, never while hal_uart_tx_busy() is true. Returns at once: the bytes go out
+ * from interrupts (or DMA). Asserts the RS485 driver enable before the first start bit.
+ * buf stays valid and untouched until hal_uart_tx_busy() is false. While sending, the
+ * receiver must not hand the echo of our own bytes to servo_rx_isr(). */
+void hal_uart_send(struct hal *h, const uint8_t *buf, uint16_t len)
+{
+    (void)h;
+    (void)buf;
+    (void)len;
+}
+
+/* Main loop. True until the last stop bit of the last byte has left the shift register
+ * (transmission complete, not merely "data register empty") AND the driver enable has
+ * been released; the core latches a new ID or baud right after it turns false. */
+bool hal_uart_tx_busy(struct hal *h)
+{
+    (void)h;
+    return false;
+}
+
+/* Main loop. Mask the interrupts that call into the core (at least the UART receive
+ * interrupt) and return the previous state; hal_irq_restore() puts it back. Must nest.
+ * Keep the time base running if hal_clock_us() needs its interrupt. */
+uint32_t hal_irq_save(struct hal *h)
+{
+    (void)h;
+    return 0;
+}
+
+void hal_irq_restore(struct hal *h, uint32_t state)
+{
+    (void)h;
+    (void)state;
+}
+
+/* Any context. A memory-mapped, read-only view of store page p (< HAL_FLASH_PAGES) of
+ * HAL_FLASH_PAGE_BYTES. The pages are reserved for the store (the linker script keeps
+ * the application out of them) and survive a firmware update. */
+const uint8_t *hal_flash_page(struct hal *h, uint8_t p)
+{
+    (void)h;
+    (void)p;
+    return 0;
+}
+
+/* Main loop. Erase page p to all 0xFF; may stall the main loop for tens of ms, but the
+ * receive interrupt must keep running (see above). False if the hardware reports a
+ * failure; the store then verifies and treats the page as bad. */
+bool hal_flash_erase(struct hal *h, uint8_t p)
+{
+    (void)h;
+    (void)p;
+    return false;
+}
+
+/* Main loop. Program the erased half-word at even byte offset off of page p; false if
+ * the hardware reports a failure or the read-back differs. */
+bool hal_flash_program(struct hal *h, uint8_t p, uint16_t off, uint16_t value)
+{
+    (void)h;
+    (void)p;
+    (void)off;
+    (void)value;
+    return false;
+}
+
+/* Main loop (control tick). Gate driver on, or off: torque off, lowest power. Off must
+ * also stop the PWM drive. At reset, before the core runs, the bridge must already be
+ * off (pins in a safe state, pull-downs on the board). */
+void hal_motor_enable(struct hal *h, bool on)
+{
+    (void)h;
+    (void)on;
+}
+
+/* Main loop (control tick). Signed duty -HAL_DUTY_MAX..HAL_DUTY_MAX; positive turns the
+ * output shaft in the positive direction of PROTOCOL.md §5.4 (the board's wiring flips
+ * it if needed); 0 coasts. Clamp anything outside the range. Never blocks. */
+void hal_motor_drive(struct hal *h, int16_t duty)
+{
+    (void)h;
+    (void)duty;
+}
+
+/* Main loop (control tick, every 1 ms). Output shaft position in board counts (struct
+ * board counts_per_rev per turn), counting up in the positive direction; a free-running
+ * 32-bit count that wraps. A 16-bit hardware counter is extended in software: correct
+ * as long as it moves less than half its range between two calls. */
+int32_t hal_motor_position(struct hal *h)
+{
+    (void)h;
+    return 0;
+}
+
+/* Main loop (control tick). Sensors, never blocking (sample in the background, e.g. ADC
+ * scan + DMA, and return the latest value): motor current magnitude in mA, supply in
+ * mV, board temperature in 0.1 C. The safety layer compares them with the limits in
+ * struct board and the control table. */
+uint16_t hal_motor_current_ma(struct hal *h)
+{
+    (void)h;
+    return 0;
+}
+
+uint16_t hal_supply_mv(struct hal *h)
+{
+    (void)h;
+    return 0;
+}
+
+int16_t hal_temperature_dc(struct hal *h)
+{
+    (void)h;
+    return 0;
+}
+
+/* Main loop. Homing photo switches, raw: bit 0 switch 1, bit 1 switch 2, 1 = light path
+ * interrupted. 0 on boards without switches. */
+uint8_t hal_photo_switches(struct hal *h)
+{
+    (void)h;
+    return 0;
+}
+
+/* Main loop. Switch the 120 ohm RS485 terminator (register 20); a no-op without one. */
+void hal_rs485_termination(struct hal *h, bool on)
+{
+    (void)h;
+    (void)on;
+}
+
+/* Main loop. Start the independent watchdog once (from servo_init); it cannot be
+ * stopped. Its period must outlast the longest main-loop stall (a flash erase) and be
+ * short enough that a hung loop stops the motor quickly (hundreds of ms). */
+void hal_watchdog_start(struct hal *h)
+{
+    (void)h;
+}
+
+/* Main loop. Reload the watchdog (servo_poll calls it only while the control tick runs). */
+void hal_watchdog_feed(struct hal *h)
+{
+    (void)h;
+}
