@@ -4,6 +4,11 @@ if(SERVO_SANITIZE)
     add_compile_options(-fsanitize=address,undefined -fno-sanitize-recover=all
                         -fno-omit-frame-pointer)
     add_link_options(-fsanitize=address,undefined)
+    # The core's libraries were created before this file: give them the flags too.
+    foreach(part bus motion)
+        target_compile_options(servo_${part} PRIVATE -fsanitize=address,undefined
+                               -fno-sanitize-recover=all -fno-omit-frame-pointer)
+    endforeach()
 endif()
 
 foreach(part bus motion)

@@ -37,6 +37,9 @@
  * after address 0 is 50), checksum. */
 #define PROTO_STATUS_MAX (5u + 50u + 1u)
 
+/* Little-endian 16-bit value at p (§4: multi-byte values are L then H). */
+uint16_t proto_get16(const uint8_t *p);
+
 /* Plain 8-bit sum of n bytes (§2: not inverted). */
 uint8_t proto_sum(const uint8_t *p, uint16_t n);
 

@@ -137,6 +137,9 @@ uint16_t regs_default(const struct board *b, uint8_t addr);
 /* Fill every register with its factory value. */
 void regs_init(struct regs *r, const struct board *b);
 
+/* Value of a register of size bytes (1 or 2) stored little-endian at p. */
+uint16_t regs_value(const uint8_t *p, uint8_t size);
+
 /* Value of the register that starts at addr (1 or 2 bytes, little-endian). */
 uint16_t regs_get(const struct regs *r, uint8_t addr);
 

@@ -31,7 +31,7 @@ uint8_t dispatch_write(struct servo *s, uint8_t addr, const uint8_t *data, uint8
     for (uint8_t i = 0; i < n;) {
         uint8_t a = (uint8_t)(addr + i);
         uint8_t size = regs_table[a].size;
-        uint16_t v = size == 2u ? (uint16_t)(data[i] | (data[i + 1u] << 8)) : data[i];
+        uint16_t v = regs_value(&data[i], size);
         if (a == REG_HOMING)
             v = (uint16_t)((r->mem[REG_HOMING] & 0xF0u) | v); /* status nibble stays */
         else if (a == REG_GOAL_POSITION)
@@ -123,8 +123,8 @@ static uint8_t do_custom(struct servo *s, const uint8_t *p, uint8_t n)
         m.absolute = 1;
     else
         return ERR_INSTRUCTION; /* other subs, including the update (0xFC/0xFE) for now */
-    m.target = (uint16_t)(p[1] | (p[2] << 8));
-    m.speed = (uint16_t)(p[3] | (p[4] << 8));
+    m.target = proto_get16(&p[1]);
+    m.speed = proto_get16(&p[3]);
     if (n == 7u) {
         m.has_ramps = 1;
         m.acc = p[5];

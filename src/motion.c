@@ -109,7 +109,7 @@ static bool referenced_for(const struct servo *s, bool speed_mode)
 /* Homing is over: status nibble of register 24, the written nibble kept. */
 static void homing_status(struct servo *s, uint8_t status)
 {
-    s->regs.mem[REG_HOMING] = (uint8_t)((status << 4) | (s->regs.mem[REG_HOMING] & 0x0Fu));
+    s->regs.mem[REG_HOMING] = (uint8_t)(((uint32_t)status << 4) | (s->regs.mem[REG_HOMING] & 0x0Fu));
 }
 
 static void homing_fail(struct servo *s)
@@ -124,7 +124,7 @@ static void engage(struct servo *s)
     struct motion *m = &s->motion;
     if (m->mode == MOTION_OFF) {
         m->plan.pos = m->counts * PLANNER_ONE;
-        m->plan.vel = (int32_t)(((int64_t)m->vel_q8 << PLANNER_SHIFT) >> 8);
+        m->plan.vel = (int32_t)((int64_t)m->vel_q8 * (PLANNER_ONE >> 8));
         m->integral = 0;
         hal_motor_enable(s->hal, true);
     }
@@ -138,6 +138,7 @@ static void coast(struct servo *s)
         homing_fail(s); /* aborted */
     m->mode = MOTION_OFF;
     m->duty = 0;
+    m->plan.vel = 0;
     hal_motor_drive(s->hal, 0);
     hal_motor_enable(s->hal, false);
 }
@@ -153,6 +154,17 @@ static void hold_here(struct servo *s)
     m->plan.pos = m->counts * PLANNER_ONE;
     m->plan.vel = 0;
     m->mode = MOTION_HOLD;
+}
+
+/* Brake (§6.3): stop at once and hold with torque, from any state, coasting included
+ * (not while asleep or unloaded: torque stays off then). */
+static void brake_hold(struct servo *s)
+{
+    if (s->motion.mode == MOTION_OFF && !s->regs.mem[REG_SLEEP] && !safety_unloaded(s)) {
+        engage(s);
+        s->motion.mode = MOTION_HOLD;
+    }
+    hold_here(s);
 }
 
 /* Ramp down with the deceleration, then hold (heartbeat, end of homing). */
@@ -223,7 +235,10 @@ static void homing_tick(struct servo *s)
             store_sync(&s->store, &s->regs, hal_clock_us(s->hal)); /* the limits are stored */
             m->referenced = 1;
             homing_status(s, HOMING_DONE);
-            m->mode = MOTION_STOP; /* stops and holds at the end */
+            m->target = m->sw_edge * PLANNER_ONE; /* stop and hold at the end itself */
+            regs_set(&s->regs, REG_GOAL_POSITION, (uint16_t)end);
+            m->mode = MOTION_MOVE;
+            planner_step_to(&m->plan, m->target, &m->lim);
             return;
         }
         break;
@@ -313,7 +328,7 @@ bool motion_write_allowed(const struct servo *s, uint8_t addr, const uint8_t *da
         return false;
     if (touches(addr, n, REG_MOVING_SPEED)) {
         uint8_t i = (uint8_t)(REG_MOVING_SPEED - addr);
-        bool stop = ((data[i] | (data[i + 1u] << 8)) & 0x7FFF) == 0; /* rule 3: never refused */
+        bool stop = (proto_get16(&data[i]) & 0x7FFFu) == 0u; /* rule 3: never refused */
         /* In position mode the speed only sets the cruise speed: it starts nothing. */
         if (!stop && regs_speed_mode(&s->regs) && (unloaded || !referenced_for(s, true)))
             return false;
@@ -343,7 +358,7 @@ void motion_on_write(struct servo *s, uint8_t addr, uint8_t n)
     if (touches(addr, n, REG_SLEEP) && s->regs.mem[REG_SLEEP])
         coast(s);
     if (touches(addr, n, REG_BRAKE) && s->regs.mem[REG_BRAKE])
-        hold_here(s);
+        brake_hold(s);
     if (touches(addr, n, REG_RESOLUTION)) {
         hold_here(s); /* §5: a resolution change stops any motion */
         return;
@@ -563,8 +578,9 @@ static void report(struct servo *s)
         regs_set(&s->regs, REG_PRESENT_POSITION, pos);
     else
         regs_set(&s->regs, REG_TURNED_ANGLE, pos);
-    int64_t speed = ((int64_t)m->vel_q8 * TICKS_PER_S * 3600) /
-                    ((int64_t)256 * resolution(s) * cpr(s));
+    int64_t num = (int64_t)m->vel_q8 * TICKS_PER_S * 3600;
+    int64_t den = (int64_t)256 * resolution(s) * cpr(s);
+    int64_t speed = (num + (num >= 0 ? den / 2 : -den / 2)) / den;
     if (speed > INT16_MAX)
         speed = INT16_MAX;
     if (speed < INT16_MIN)
@@ -576,15 +592,14 @@ static void report(struct servo *s)
 void motion_poll(struct servo *s, uint32_t now_us)
 {
     struct motion *m = &s->motion;
-    uint8_t due = 0;
-    while ((int32_t)(now_us - m->tick_us) >= (int32_t)MOTION_TICK_US) {
-        m->tick_us += MOTION_TICK_US;
-        tick(s);
-        if (++due == 4u) { /* far behind (a long flash stall): skip, do not race */
-            m->tick_us = now_us;
-            break;
-        }
-    }
-    if (due)
-        report(s);
+    if ((int32_t)(now_us - m->tick_us) < (int32_t)MOTION_TICK_US)
+        return;
+    /* One tick per call. If the loop was held up (a flash compaction) the missed ticks
+     * are dropped, not replayed back to back: ticks run at the same instant would see
+     * all the motion in the first and none in the rest. */
+    m->tick_us += MOTION_TICK_US;
+    if ((int32_t)(now_us - m->tick_us) >= (int32_t)MOTION_TICK_US)
+        m->tick_us = now_us;
+    tick(s);
+    report(s);
 }

@@ -46,7 +46,7 @@ static int32_t ramp(int32_t vel, int32_t want, const struct plan_limits *lim)
 {
     if (vel == want)
         return want;
-    bool up = vel >= 0 ? want > vel : want < vel; /* away from zero = speeding up */
+    bool up = vel > 0 ? want > vel : vel < 0 ? want < vel : true; /* away from zero */
     if (vel > 0 && want < 0) {
         int32_t v = vel - lim->dec;
         return v < 0 ? 0 : v;

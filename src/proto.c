@@ -3,6 +3,11 @@
 
 #include "proto.h"
 
+uint16_t proto_get16(const uint8_t *p)
+{
+    return (uint16_t)(p[0] + 256u * p[1]);
+}
+
 uint8_t proto_sum(const uint8_t *p, uint16_t n)
 {
     uint8_t sum = 0;

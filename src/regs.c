@@ -2,6 +2,7 @@
  * operations every other module derives from it. */
 #include <string.h>
 
+#include "proto.h"
 #include "regs.h"
 
 #ifndef SERVO_FW_VERSION
@@ -166,9 +167,9 @@ void regs_read(const struct regs *r, uint8_t addr, uint8_t count, uint8_t *out)
     }
 }
 
-static uint16_t value_at(const uint8_t *p, uint8_t size)
+uint16_t regs_value(const uint8_t *p, uint8_t size)
 {
-    return size == 2 ? (uint16_t)(p[0] | (p[1] << 8)) : p[0];
+    return size == 2 ? proto_get16(p) : p[0];
 }
 
 bool regs_write_valid(const struct regs *r, uint8_t addr, const uint8_t *data, uint8_t n)
@@ -181,7 +182,7 @@ bool regs_write_valid(const struct regs *r, uint8_t addr, const uint8_t *data, u
         const struct reg_desc *d = &regs_table[a];
         if (!regs_applicable(r->board, a) || !(d->access & REG_ACCESS_W) || d->size > n - i)
             return false;
-        uint16_t v = value_at(&data[i], d->size);
+        uint16_t v = regs_value(&data[i], d->size);
         if (v < d->min || v > d->max)
             return false;
         if (a == REG_CW_LIMIT)

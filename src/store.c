@@ -2,6 +2,7 @@
 #include <string.h>
 
 #include "hal.h"
+#include "proto.h"
 #include "store.h"
 
 #define MAGIC 0x5E3Eu
@@ -18,7 +19,7 @@
 
 static uint16_t half_at(const uint8_t *page, uint16_t off)
 {
-    return (uint16_t)(page[off] | (page[off + 1u] << 8));
+    return proto_get16(&page[off]);
 }
 
 static uint32_t crc32_update(uint32_t crc, uint32_t v, uint8_t bytes)
@@ -154,7 +155,7 @@ void store_load(struct store *st, struct hal *hal, struct regs *r, uint32_t now_
         if (!stored(r->board, a))
             continue;
         uint8_t n = regs_table[a].size;
-        uint16_t v = n == 2u ? (uint16_t)(st->saved[a] | (st->saved[a + 1u] << 8)) : st->saved[a];
+        uint16_t v = regs_value(&st->saved[a], n);
         if (v >= regs_table[a].min && v <= regs_table[a].max)
             regs_set(r, a, v);
     }
@@ -178,8 +179,7 @@ static bool write_record(struct store *st, uint8_t p, uint16_t off, uint8_t tag,
                          const uint8_t *mem, uint32_t seq)
 {
     uint16_t head = (uint16_t)(((TAG_PATTERN | tag) << 8) | addr);
-    uint16_t value = regs_table[addr].size == 2u ? (uint16_t)(mem[addr] | (mem[addr + 1u] << 8))
-                                                 : mem[addr];
+    uint16_t value = regs_value(&mem[addr], regs_table[addr].size);
     return program(st, p, off, head) && program(st, p, (uint16_t)(off + 2u), value) &&
            program(st, p, (uint16_t)(off + 4u), record_check(head, value, seq));
 }

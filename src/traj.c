@@ -20,14 +20,14 @@ uint8_t traj_write(struct traj *t, const struct regs *r, const uint8_t *p, uint8
         return ERR_INSTRUCTION;
     const uint8_t *q = &p[1];
     for (uint8_t i = 0; i < count; i++, q += size) {
-        uint16_t speed = size == 4u ? (uint16_t)(q[2] | (q[3] << 8)) : q[2];
+        uint16_t speed = size == 4u ? proto_get16(&q[2]) : q[2];
         if (speed == 0u)
             return ERR_INSTRUCTION;
     }
     q = &p[1];
     for (uint8_t i = 0; i < count; i++, q += size) {
-        t->pt[i].angle = regs_clamp_goal(r, (uint16_t)(q[0] | (q[1] << 8)));
-        t->pt[i].speed = size == 4u ? (uint16_t)(q[2] | (q[3] << 8)) : q[2];
+        t->pt[i].angle = regs_clamp_goal(r, proto_get16(&q[0]));
+        t->pt[i].speed = size == 4u ? proto_get16(&q[2]) : q[2];
     }
     t->count = count;
     return 0;
