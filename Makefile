@@ -2,7 +2,7 @@
 # what is missing first (tools/install-deps.sh).
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 
-.PHONY: all deps host stm32 test bench demo docs clean firmware flash
+.PHONY: all deps host stm32 test bench demo demo-bytes docs clean firmware flash
 
 # Firmware images: every reference board (board/<name>/), or the one `make flash` writes.
 BOARDS := base foot arm wrist finger
@@ -56,7 +56,13 @@ bench: deps
 	cmake --build --preset bench -j $(JOBS)
 	tools/bench.sh build/bench
 
+# The main job on the virtual servo bus: servo-sim + the Python SDK, in real time
+# (about 25 s), writing build/demo.png. `make demo-bytes` shows the same bus byte by byte
+# in virtual time.
 demo: host
+	/usr/bin/python3 tools/demo.py build/demo.png
+
+demo-bytes: host
 	build/host/tools/demo
 
 docs: host

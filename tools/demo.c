@@ -1,6 +1,7 @@
-/* demo.c - `make demo`: a foot, an arm and a base (host-built firmware) on the virtual
- * bus, driven through a scripted session; every packet and what it means is printed.
- * Motion is not in this build yet: goals and speeds are stored, nothing turns. */
+/* demo.c - `make demo-bytes`: a foot, an arm and a base (host-built firmware) on the
+ * virtual bus in virtual time, driven through a scripted session of bus transactions;
+ * every packet, its timing and what it means is printed. (`make demo` is the real-time
+ * session through the Python SDK, tools/demo.py.) */
 #include <stdio.h>
 #include <string.h>
 
