@@ -35,7 +35,9 @@ target_compile_definitions(${image}.elf PRIVATE SERVO_BOARD=board_${BOARD})
 target_link_options(${image}.elf PRIVATE
     -T${SERVO_LDSCRIPT}
     -Wl,-Map=${CMAKE_BINARY_DIR}/${image}.map)
-set_target_properties(${image}.elf PROPERTIES LINK_DEPENDS ${SERVO_LDSCRIPT})
+# Relink (and so re-run the checks below) when the linker script or a check changes.
+set_target_properties(${image}.elf PROPERTIES LINK_DEPENDS
+    "${SERVO_LDSCRIPT};${CMAKE_SOURCE_DIR}/hal/stm32f1/check_isr_ram.py;${CMAKE_SOURCE_DIR}/hal/stm32f1/stack_report.py;${CMAKE_SOURCE_DIR}/cmake/check-budget.cmake;${CMAKE_SOURCE_DIR}/cmake/check-no-float.cmake")
 
 add_custom_command(TARGET ${image}.elf POST_BUILD
     COMMAND ${CMAKE_COMMAND} -DNM=arm-none-eabi-nm -DELF=$<TARGET_FILE:${image}.elf>

@@ -6,8 +6,9 @@ During a page erase every flash read stalls the CPU for up to 40 ms; the USART1 
 SysTick handlers (and the FPEC wait loop) run from RAM so no received byte is lost. The
 linker script places them, and the core's receive path (frame_rx.c, servo_rx_isr), in
 RAM by name; this check walks the disassembly from those roots through every direct
-call or jump and fails if it reaches a function in flash, an indirect call, or a literal
-that points into flash (a constant table the code would read). A change in the core that
+call or jump and fails if it reaches a function in flash, an indirect call, a long-branch
+veneer (what the linker adds to reach flash from RAM), or a literal that points into
+flash (a constant table the code would read). A change in the core that
 makes the receive path call something new shows up here, not as lost bytes on a bench.
 
 Usage: check_isr_ram.py image.elf  (arm-none-eabi-nm/objdump on the PATH)
@@ -33,6 +34,10 @@ def main(elf):
         if len(parts) == 4 and parts[2] in "tTW":
             funcs[int(parts[0], 16) & ~1] = (parts[3], int(parts[1], 16))
     starts = sorted(funcs)
+    # Linker-made veneers have no size: they run up to the next symbol.
+    for i, a in enumerate(starts):
+        if funcs[a][1] == 0 and i + 1 < len(starts):
+            funcs[a] = (funcs[a][0], starts[i + 1] - a)
     by_name = {name: addr for addr, (name, _) in funcs.items()}
 
     def owner(addr):
@@ -64,6 +69,9 @@ def main(elf):
                     calls.setdefault(f, set()).add(target)
         elif op in ("blx", "bx") and not args.startswith("lr"):
             problems.setdefault(f, []).append(f"indirect {op} {args}")
+        elif op.startswith("ldr") and args.startswith("pc,"):
+            # A long-branch veneer: RAM code never needs one except to reach flash.
+            problems.setdefault(f, []).append(f"long branch ({op} {args}), into flash")
         elif op == ".word":
             w = re.match(r"0x([0-9a-f]+)", args)
             if w and FLASH[0] <= int(w.group(1), 16) < FLASH[1]:
