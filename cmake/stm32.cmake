@@ -36,8 +36,10 @@ target_link_options(${image}.elf PRIVATE
     -T${SERVO_LDSCRIPT}
     -Wl,-Map=${CMAKE_BINARY_DIR}/${image}.map)
 # Relink (and so re-run the checks below) when the linker script or a check changes.
-set_target_properties(${image}.elf PROPERTIES LINK_DEPENDS
-    "${SERVO_LDSCRIPT};${CMAKE_SOURCE_DIR}/hal/stm32f1/check_isr_ram.py;${CMAKE_SOURCE_DIR}/hal/stm32f1/stack_report.py;${CMAKE_SOURCE_DIR}/cmake/check-budget.cmake;${CMAKE_SOURCE_DIR}/cmake/check-no-float.cmake")
+set(checks hal/stm32f1/check_isr_ram.py hal/stm32f1/stack_report.py
+    cmake/check-budget.cmake cmake/check-no-float.cmake)
+list(TRANSFORM checks PREPEND ${CMAKE_SOURCE_DIR}/)
+set_target_properties(${image}.elf PROPERTIES LINK_DEPENDS "${SERVO_LDSCRIPT};${checks}")
 
 add_custom_command(TARGET ${image}.elf POST_BUILD
     COMMAND ${CMAKE_COMMAND} -DNM=arm-none-eabi-nm -DELF=$<TARGET_FILE:${image}.elf>

@@ -71,7 +71,7 @@ def main(elf):
             problems.setdefault(f, []).append(f"indirect {op} {args}")
         elif op.startswith("ldr") and args.startswith("pc,"):
             # A long-branch veneer: RAM code never needs one except to reach flash.
-            problems.setdefault(f, []).append(f"long branch ({op} {args}), into flash")
+            problems.setdefault(f, []).append(f"long branch into flash ({op} {args})")
         elif op == ".word":
             w = re.match(r"0x([0-9a-f]+)", args)
             if w and FLASH[0] <= int(w.group(1), 16) < FLASH[1]:

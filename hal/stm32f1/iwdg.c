@@ -15,7 +15,8 @@ void hal_watchdog_start(struct hal *h)
     IWDG->pr = IWDG_PR_DIV32;
     IWDG->rlr = IWDG_RELOAD;
     /* The new values cross into the LSI domain; bounded, an emulator may never clear. */
-    for (uint32_t spins = 100000u; spins && (IWDG->sr & (IWDG_SR_PVU | IWDG_SR_RVU)); spins--) {
+    uint32_t spins = 100000u;
+    while (spins-- && (IWDG->sr & (IWDG_SR_PVU | IWDG_SR_RVU))) {
     }
     IWDG->kr = IWDG_KEY_RELOAD;
 }

@@ -1,7 +1,8 @@
 /* main.c - the servo on an STM32F103: bring the port up, then one servo in the main loop
- * for ever (servo_init starts the independent watchdog, servo_poll feeds it). Interrupt context is the USART1 receive interrupt (servo_rx_isr) and the
- * SysTick time base; everything else runs here. The board is chosen at build time
- * (CMake BOARD, which sets SERVO_BOARD and board/<name>/board_pins.h). */
+ * for ever (servo_init starts the independent watchdog, servo_poll feeds it). Interrupt
+ * context is the USART1 receive interrupt (servo_rx_isr) and the SysTick time base;
+ * everything else runs here. The board is chosen at build time (CMake BOARD, which sets
+ * SERVO_BOARD and board/<name>/board_pins.h). */
 #include "hal_stm32f1.h"
 #include "servo.h"
 

@@ -161,5 +161,6 @@ uint16_t hal_supply_mv(struct hal *h)
 int16_t hal_temperature_dc(struct hal *h)
 {
     int32_t mv = (int32_t)(h->adc[ADC_TEMP] * 3300u >> 12);
-    return (int16_t)((mv - (int32_t)BOARD_TEMP_MV_AT_0C) * 1000 / (int32_t)BOARD_TEMP_UV_PER_DC);
+    int32_t dc = (mv - (int32_t)BOARD_TEMP_MV_AT_0C) * 1000 / (int32_t)BOARD_TEMP_UV_PER_DC;
+    return (int16_t)dc;
 }

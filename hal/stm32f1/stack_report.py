@@ -4,8 +4,8 @@ total, against the stack the linker script reserves; fails the build if it does 
 
 Frame sizes come from GCC's -fstack-usage (.su files of the core and the port); library
 functions without one (memcpy, the 64-bit division helpers) are sized from their code:
-every push and stack-pointer decrement in them, added up. The call graph is the linked image's own: every direct call and
-tail jump in the disassembly. An indirect call, recursion or a frame GCC calls "dynamic"
+every push and stack-pointer decrement in them, added up. The call graph is the linked
+image's own: every direct call and tail jump in the disassembly. An indirect call, recursion or a frame GCC calls "dynamic"
 fails the check, since the bound would be unknown.
 
 Interrupts nest as the port sets them up: the main loop (reset_handler -> main), then
@@ -76,7 +76,8 @@ def main(elf, build_dir):
                 regs = re.search(r"\{(.*)\}", args)
                 for r in regs.group(1).split(",") if regs else ():
                     span = re.match(r"\s*r(\d+)-r(\d+)", r)
-                    frame[cur] += 4 * (int(span.group(2)) - int(span.group(1)) + 1 if span else 1)
+                    n = int(span.group(2)) - int(span.group(1)) + 1 if span else 1
+                    frame[cur] += 4 * n
             sub = re.match(r"sub(?:w|\.w)?\s+sp, (?:sp, )?#(\d+)", op + " " + args)
             if sub:
                 frame[cur] += int(sub.group(1))

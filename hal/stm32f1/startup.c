@@ -44,7 +44,8 @@ __attribute__((section(".isr_vector"), used)) static const vector vectors[VECTOR
 
 /* The live table (VTOR): in RAM, at the start of RAM (the linker script puts it there),
  * aligned to its size rounded up to a power of two. */
-__attribute__((section(".ram_vectors"), aligned(256))) static uint32_t ram_vectors[VECTORS_F103];
+__attribute__((section(".ram_vectors"), aligned(256)))
+static uint32_t ram_vectors[VECTORS_F103];
 
 void reset_handler(void)
 {
