@@ -2,7 +2,7 @@
 # what is missing first (tools/install-deps.sh).
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 
-.PHONY: all deps host stm32 test bench demo demo-bytes docs clean firmware flash
+.PHONY: all deps host stm32 test lint bench demo demo-bytes docs clean firmware flash
 
 # Firmware images: every reference board (board/<name>/), or the one `make flash` writes.
 BOARDS := base foot arm wrist finger
@@ -25,8 +25,13 @@ stm32: deps
 	cmake --preset stm32
 	cmake --build --preset stm32 -j $(JOBS)
 
-test: host stm32 firmware
+test: host stm32 firmware lint
 	ctest --preset host -j $(JOBS)
+
+# Static analysis, zero findings (docs/lint.md): cppcheck + MISRA addon, clang-tidy,
+# gcc -fanalyzer. About 30 s.
+lint: host
+	@tools/lint/lint.sh
 
 # build/stm32-<board>/servo-<board>.{elf,bin,hex,map}; the build fails past the budget.
 firmware: deps

@@ -15,6 +15,7 @@ _Static_assert(FRAME_BYTES >= 2u + 255u, "a slot must hold the longest LEN");
 /* Each ring index is written by one side only; the other side reads it with acquire so
  * it sees the slot contents written before the index moved. */
 static uint8_t load_acquire(const uint8_t *p) { return __atomic_load_n(p, __ATOMIC_ACQUIRE); }
+/* NOLINTNEXTLINE(readability-non-const-parameter): __atomic_store_n writes *p */
 static void store_release(uint8_t *p, uint8_t v) { __atomic_store_n(p, v, __ATOMIC_RELEASE); }
 
 uint32_t frame_rx_gap_us(uint32_t baud)
@@ -36,7 +37,8 @@ void frame_rx_init(struct frame_rx *rx, uint32_t baud)
  * that ended (or a moment) at now_us? */
 static bool gap_passed(const struct frame_rx *rx, uint32_t now_us)
 {
-    return now_us - rx->last_us > rx->gap_us + rx->byte_us;
+    /* Signed: the main loop may ask with a time read just before a byte arrived. */
+    return (int32_t)(now_us - rx->last_us) > (int32_t)(rx->gap_us + rx->byte_us);
 }
 
 /* ISR: a slot for a new candidate frame, or NO_SLOT when all are in use. */

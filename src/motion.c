@@ -55,9 +55,9 @@ static int32_t counts_to_units(const struct servo *s, int64_t counts)
 /* Speed magnitude in units/s to counts/tick x 2^24, capped at MAX_SPEED_DPS. */
 static int32_t speed_q24(const struct servo *s, uint16_t units_per_s)
 {
-    int64_t max = ((int64_t)MAX_SPEED_DPS * cpr(s) << PLANNER_SHIFT) / (360 * TICKS_PER_S);
+    int64_t max = ((int64_t)MAX_SPEED_DPS * cpr(s) << PLANNER_SHIFT) / ((int64_t)360 * TICKS_PER_S);
     int64_t v = ((int64_t)units_per_s * resolution(s) * cpr(s) << PLANNER_SHIFT) /
-                (3600 * TICKS_PER_S);
+                ((int64_t)3600 * TICKS_PER_S);
     return (int32_t)(v > max ? max : v);
 }
 
@@ -189,7 +189,7 @@ static void start_homing(struct servo *s)
     m->home_phase = (s->regs.mem[REG_PHOTO_SWITCHES] & 1u) ? HOME_BACKOFF : HOME_SEEK;
     m->home_from = m->counts;
     uint16_t dps = s->board->homing_dps;
-    m->lim.vmax = (int32_t)(((int64_t)dps * cpr(s) << PLANNER_SHIFT) / (360 * TICKS_PER_S));
+    m->lim.vmax = (int32_t)(((int64_t)dps * cpr(s) << PLANNER_SHIFT) / ((int64_t)360 * TICKS_PER_S));
     uint8_t a = acc_reg(s);
     m->lim.acc = accel_q24(s, s->regs.mem[a] ? s->regs.mem[a] : 36u, m->lim.vmax);
     m->lim.dec = accel_q24(s, s->regs.mem[a + 1u] ? s->regs.mem[a + 1u] : 36u, m->lim.vmax);
@@ -499,6 +499,7 @@ static int16_t control(struct motion *m)
     }
     int32_t vref_q8 = m->plan.vel >> (PLANNER_SHIFT - 8);
     int64_t duty = ((int64_t)KFF * vref_q8) / 256 + (int64_t)KP * err +
+                   /* cppcheck-suppress shiftNegativeLHS ; arithmetic right shift (docs/lint.md) */
                    ((int64_t)KD * (vref_q8 - m->vel_q8)) / 256 + (m->integral >> KI_SHIFT);
     if (m->plan.vel)
         duty += m->plan.vel > 0 ? KFRICTION : -KFRICTION;

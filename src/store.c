@@ -42,7 +42,7 @@ static uint32_t header_crc(uint32_t seq)
 static uint16_t record_check(uint16_t head, uint16_t value, uint32_t seq)
 {
     uint16_t crc = 0xFFFFu;
-    uint32_t words[2] = {(uint32_t)head | ((uint32_t)value << 16), seq};
+    const uint32_t words[2] = {(uint32_t)head | ((uint32_t)value << 16), seq};
     for (uint8_t w = 0; w < 2u; w++)
         for (uint8_t i = 0; i < 4u; i++) {
             crc ^= (uint16_t)(((words[w] >> (8u * i)) & 0xFFu) << 8);
@@ -301,12 +301,14 @@ void store_poll(struct store *st, const struct regs *r, uint32_t now_us, bool id
 {
     if (st->pending)
         store_sync(st, r, now_us);
-    if (!st->spare_blank && idle) {
+    if (!st->spare_blank && idle && (int32_t)(now_us - st->retry_at) >= 0) {
         uint8_t p = spare_page(st);
         const uint8_t *page = hal_flash_page(st->hal, p);
-        if (page_blank(page) || (hal_flash_erase(st->hal, p) && page_blank(page)))
+        if (page_blank(page) || (hal_flash_erase(st->hal, p) && page_blank(page))) {
             st->spare_blank = 1;
-        else
+        } else {
             st->faults++;
+            st->retry_at = now_us + 1000000u; /* each try stalls the CPU: once a second */
+        }
     }
 }
