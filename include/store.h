@@ -39,6 +39,7 @@ struct store {
     uint32_t refill_us; /* one token per refill_us; 0 = no rate limit */
     uint32_t token_at;  /* when the last token was added */
     uint32_t faults;    /* flash operations that failed */
+    uint32_t retry_at;  /* a failed pre-erase is not retried before this time */
 };
 
 /* Boot: read the flash (no writes) and put every committed EEPROM value into r, which

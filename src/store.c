@@ -138,6 +138,7 @@ void store_load(struct store *st, struct hal *hal, struct regs *r, uint32_t now_
     st->tokens = STORE_BURST;
     st->refill_us = STORE_REFILL_US;
     st->token_at = now_us;
+    st->retry_at = now_us;
     memcpy(st->saved, r->mem, sizeof st->saved);
     for (uint8_t p = 0; p < HAL_FLASH_PAGES; p++) {
         uint32_t seq;

@@ -32,11 +32,11 @@ echo "== reply latency with return delay 0 (virtual time; the host build runs th
 echo "   dispatch in zero virtual time, so this is scheduling latency)"
 "$bench" latency
 echo
-if [ -f build/stm32/servo-stub.elf ]; then
-    echo "== Cortex-M3 link stub (core + stub HAL), bytes"
-    arm-none-eabi-size build/stm32/servo-stub.elf
+if [ -f build/stm32/servo-arm.elf ]; then
+    echo "== Cortex-M3 arm image (build/stm32), bytes"
+    arm-none-eabi-size build/stm32/servo-arm.elf
     for fn in frame_rx_byte dispatch_frame; do
-        hex=$(arm-none-eabi-nm -S build/stm32/servo-stub.elf | awk -v f="$fn" '$4==f {print $2}')
+        hex=$(arm-none-eabi-nm -S build/stm32/servo-arm.elf | awk -v f="$fn" '$4==f {print $2}')
         [ -n "$hex" ] && echo "$fn: $((16#$hex)) bytes of Thumb-2 code"
     done
 fi
