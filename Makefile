@@ -2,7 +2,7 @@
 # what is missing first (tools/install-deps.sh).
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 
-.PHONY: all deps host stm32 test lint bench demo demo-bytes docs clean firmware flash
+.PHONY: all deps host stm32 test lint fuzz bench demo demo-bytes docs clean firmware flash
 
 # Firmware images: every reference board (board/<name>/), or the one `make flash` writes.
 BOARDS := base foot arm wrist finger
@@ -32,6 +32,12 @@ test: host stm32 firmware lint
 # gcc -fanalyzer. About 30 s.
 lint: host
 	@tools/lint/lint.sh
+
+# The bus fuzzer under libFuzzer (clang, ASan+UBSan) for FUZZ_SECONDS, then the coverage
+# of src/ by its corpus. CI runs a bounded session (FUZZ_SECONDS=90) after make test.
+FUZZ_SECONDS ?= 600
+fuzz: deps
+	@FUZZ_SECONDS=$(FUZZ_SECONDS) tools/fuzz/fuzz.sh
 
 # build/stm32-<board>/servo-<board>.{elf,bin,hex,map}; the build fails past the budget.
 firmware: deps

@@ -1,0 +1,277 @@
+/* fuzz_bus.c - a whole host-built servo (receiver, dispatcher, control table, motion,
+ * safety, the store on simulated flash) fed an arbitrary byte stream with arbitrary
+ * timing, checking invariants after every byte, gap and dispatched frame.
+ *
+ * Built two ways from this one source:
+ *   - with clang -fsanitize=fuzzer,address,undefined (FUZZ_LIBFUZZER defined by
+ *     tools/fuzz/fuzz.sh): the libFuzzer target of `make fuzz`;
+ *   - with gcc in the host preset (ASan+UBSan): `fuzz_replay FILE|DIR...` runs each file
+ *     once; CTest replays tests/fuzz/corpus/ and every past finding in
+ *     tests/fuzz/findings/.
+ *
+ * Input: byte 0 picks the board (base, foot, arm, wrist, finger), byte 1 the servo's ID
+ * (0: factory ID 1). The rest is the wire, from the host:
+ *   FF FF      one data byte FF
+ *   FF FE      power cycle (reboot the servo; the flash survives)
+ *   FF FD k    plan a flash power cut at the (k & 15) + 1-th next program or erase, kind
+ *              (k >> 4) % 3 (clean, done, torn); the servo reboots when it happens
+ *   FF g       (g <= FC) idle line for (g + 1)^2 x 10 us (10 us ... 0.64 s)
+ *   other b    one data byte, 10 bit-times at the servo's baud rate
+ * The main loop runs every POLL_US of virtual time; input past MAX_VIRTUAL_US is ignored.
+ *
+ * Invariants (abort on violation, so libFuzzer keeps the input):
+ *   1. the identity registers (read-only, EEPROM: model number, firmware version) never
+ *      change; every writable register is within its descriptor's range; CW <= CCW;
+ *   2. no answer is scheduled for a broadcast frame other than PING;
+ *   3. from power-up the motor stays off (bridge disabled, duty 0) until a frame with a
+ *      good checksum other than PING or READ has been dispatched;
+ *   4. after a WRITE of moving speed 0 (bits 0-14) that the servo accepted, the drive
+ *      stays at 0 until the next frame with a good checksum is dispatched;
+ *   5. interrupts are never left masked by the main loop. */
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "hal_host.h"
+#include "proto.h"
+#include "servo.h"
+
+#define POLL_US 250u
+#define MAX_VIRTUAL_US 4000000u /* an input plays at most 4 s of bus time */
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+
+static struct hal hal;
+static struct servo servo;
+static uint8_t factory[REGS_SIZE];
+static bool motion_commanded; /* invariant 3 */
+static bool speed0_window;    /* invariant 4 */
+
+#define CHECK(cond)                                                                         \
+    do {                                                                                    \
+        if (!(cond)) {                                                                      \
+            fprintf(stderr, "fuzz_bus: invariant failed at %s:%d: %s (t = %u us)\n",        \
+                    __FILE__, __LINE__, #cond, (unsigned)hal.now_us);                       \
+            abort();                                                                        \
+        }                                                                                   \
+    } while (0)
+
+static uint8_t checked[REGS_SIZE]; /* the table as last checked */
+
+/* Checks the table whenever it differs from the one last checked. */
+static void check_table(void)
+{
+    const struct servo *s = &servo;
+    if (memcmp(checked, s->regs.mem, sizeof checked) == 0)
+        return;
+    memcpy(checked, s->regs.mem, sizeof checked);
+    for (uint8_t a = 0; a < REGS_SIZE; a++) {
+        const struct reg_desc *d = &regs_table[a];
+        if (!d->size || !regs_applicable(s->board, a))
+            continue;
+        if (d->access == REG_ACCESS_R) {
+            if (d->area == REG_AREA_EE)
+                CHECK(memcmp(&s->regs.mem[a], &factory[a], d->size) == 0);
+            continue;
+        }
+        uint16_t v = regs_get(&s->regs, a);
+        if (a == REG_HOMING)
+            v &= 0x0Fu; /* the status nibble; the command nibble reads back as written */
+        if (a != REG_CLEAR_UNLOAD) {
+            CHECK(v >= d->min);
+            CHECK(v <= d->max);
+        }
+    }
+    CHECK(regs_get(&s->regs, REG_CW_LIMIT) <= regs_get(&s->regs, REG_CCW_LIMIT));
+}
+
+static void check_all(void)
+{
+    check_table();
+    CHECK(hal.irq_depth == 0);
+    if (!motion_commanded) {
+        CHECK(!hal.motor.enabled);
+        CHECK(hal.motor.duty == 0);
+    }
+    if (speed0_window)
+        CHECK(hal.motor.duty == 0);
+}
+
+static void power_up(void)
+{
+    hal_host_reboot(&hal);
+    servo_init(&servo, servo.board, &hal);
+    motion_commanded = false;
+    speed0_window = false;
+}
+
+/* A WRITE that sets the moving speed to 0 (bits 0-14) without switching the brake on. */
+static bool writes_speed0(const uint8_t *buf, uint16_t len)
+{
+    if (buf[2] != INS_WRITE || len < 6u)
+        return false;
+    uint8_t addr = buf[3];
+    uint16_t n = (uint16_t)(len - 5u); /* ID LEN INS ADDR data... CHK */
+    if (addr > REG_MOVING_SPEED || addr + n < REG_MOVING_SPEED + 2u)
+        return false;
+    if (addr <= REG_BRAKE && addr + n > REG_BRAKE && buf[4 + REG_BRAKE - addr])
+        return false;
+    const uint8_t *p = &buf[4 + REG_MOVING_SPEED - addr];
+    return (p[0] | ((p[1] & 0x7Fu) << 8)) == 0u;
+}
+
+/* One main-loop pass, watching which frame it dispatches. */
+static void poll_once(void)
+{
+    const struct frame *f = frame_rx_peek(&servo.rx);
+    uint8_t tail = servo.rx.ready_tail;
+    uint8_t buf[FRAME_BYTES];
+    uint16_t len = 0;
+    bool ok = false;
+    uint8_t my_id = servo.link.id;
+    if (f) {
+        len = f->len;
+        memcpy(buf, f->buf, len);
+        ok = f->status == FRAME_OK;
+    }
+    servo_poll(&servo);
+    if (f && servo.rx.ready_tail != tail) { /* dispatched */
+        if (buf[0] == PROTO_ID_BROADCAST && !(ok && buf[2] == INS_PING))
+            CHECK(servo.link.state == LINK_IDLE); /* invariant 2 */
+        if (ok) {
+            speed0_window = false;
+            if (buf[2] != INS_PING && buf[2] != INS_READ)
+                motion_commanded = true;
+            if ((buf[0] == my_id || buf[0] == PROTO_ID_BROADCAST) && writes_speed0(buf, len) &&
+                (regs_get(&servo.regs, REG_MOVING_SPEED) & 0x7FFFu) == 0u)
+                speed0_window = true;
+        }
+    }
+    if (!hal.flash.powered) /* a planned cut happened: the MCU goes down with it */
+        power_up();
+    check_all();
+}
+
+/* Advance virtual time to t, running the main loop every POLL_US. */
+static void run_until(uint32_t t)
+{
+    while ((int32_t)(t - hal.now_us) > 0) {
+        uint32_t step = t - hal.now_us;
+        hal.now_us += step < POLL_US ? step : POLL_US;
+        poll_once();
+    }
+}
+
+static void send_byte(uint8_t b)
+{
+    uint32_t baud = hal.baud ? hal.baud : 9600u;
+    run_until(hal.now_us + (10u * 1000000u + baud - 1u) / baud); /* the byte's 10 bits */
+    servo_rx_isr(&servo, b);
+    poll_once();
+}
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    static const struct board *const boards[] = {&board_base, &board_foot, &board_arm,
+                                                 &board_wrist, &board_finger};
+    if (size < 2u)
+        return 0;
+    const struct board *b = boards[data[0] % 5u];
+    hal_host_init(&hal);
+    hal_host_attach_board(&hal, b);
+    servo_init(&servo, b, &hal);
+    if (data[1]) {
+        servo.regs.mem[REG_ID] = data[1] < PROTO_ID_BROADCAST ? data[1] : 1u;
+        link_latch(&servo);
+    }
+    memcpy(factory, servo.regs.mem, sizeof factory);
+    memset(checked, 0, sizeof checked);
+    checked[0] = (uint8_t)~factory[0]; /* differs: the first check runs */
+    motion_commanded = false;
+    speed0_window = false;
+    check_all();
+
+    for (size_t i = 2; i < size && hal.now_us < MAX_VIRTUAL_US; i++) {
+        if (data[i] != 0xFFu) {
+            send_byte(data[i]);
+            continue;
+        }
+        if (++i == size)
+            break;
+        uint8_t c = data[i];
+        if (c == 0xFFu) {
+            send_byte(0xFFu);
+        } else if (c == 0xFEu) {
+            power_up();
+            check_all();
+        } else if (c == 0xFDu) {
+            if (++i == size)
+                break;
+            hal.flash.cut_at = hal.flash.ops + (data[i] & 15u) + 1u;
+            hal.flash.cut_kind = (uint8_t)((data[i] >> 4) % 3u);
+        } else {
+            run_until(hal.now_us + (c + 1u) * (c + 1u) * 10u);
+        }
+    }
+    run_until(hal.now_us + 20000u); /* let the last answer go out */
+    return 0;
+}
+
+#ifndef FUZZ_LIBFUZZER
+/* Replay driver: every file named, every regular file in every directory named. */
+#include <dirent.h>
+
+static int run_file(const char *path)
+{
+    FILE *fp = fopen(path, "rb");
+    if (!fp) {
+        perror(path);
+        return 1;
+    }
+    static uint8_t buf[1u << 20];
+    size_t n = fread(buf, 1, sizeof buf, fp);
+    fclose(fp);
+    LLVMFuzzerTestOneInput(buf, n);
+    return 0;
+}
+
+static int cmp(const void *a, const void *b)
+{
+    return strcmp(*(char *const *)a, *(char *const *)b);
+}
+
+int main(int argc, char **argv)
+{
+    unsigned files = 0;
+    int rc = 0;
+    for (int a = 1; a < argc; a++) {
+        DIR *d = opendir(argv[a]);
+        if (!d) {
+            rc |= run_file(argv[a]);
+            files++;
+            continue;
+        }
+        char *names[4096];
+        unsigned n = 0;
+        for (struct dirent *e; (e = readdir(d)) != NULL && n < 4096u;)
+            if (e->d_name[0] != '.' && strcmp(e->d_name, "README.md") != 0) {
+                size_t len = strlen(argv[a]) + strlen(e->d_name) + 2u;
+                names[n] = malloc(len);
+                snprintf(names[n], len, "%s/%s", argv[a], e->d_name);
+                n++;
+            }
+        closedir(d);
+        qsort(names, n, sizeof names[0], cmp);
+        for (unsigned i = 0; i < n; i++) {
+            rc |= run_file(names[i]);
+            free(names[i]);
+            files++;
+        }
+    }
+    printf("fuzz_replay: %u inputs, every invariant held\n", files);
+    return rc;
+}
+#endif
