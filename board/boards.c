@@ -10,6 +10,7 @@ const struct board board_base = {
     .max_angle_ddeg = 0, .current_limit = 50, .default_baud = 115200,
     .return_delay = 8, .photo_switches = 0, .counts_per_rev = 16384,
     .supply_min_mv = 9000, .supply_max_mv = 15000, .homing_dps = 60, .homing_travel_deg = 800,
+    .duty_per_amp = 166, /* 2 ohm at 12 V */
 };
 
 const struct board board_foot = {
@@ -17,6 +18,7 @@ const struct board board_foot = {
     .max_angle_ddeg = 3600, .current_limit = 40, .default_baud = 9600,
     .return_delay = 16, .photo_switches = 0, .counts_per_rev = 16384,
     .supply_min_mv = 9000, .supply_max_mv = 15000, .homing_dps = 60, .homing_travel_deg = 800,
+    .duty_per_amp = 166, /* 2 ohm at 12 V */
 };
 
 const struct board board_arm = {
@@ -24,6 +26,7 @@ const struct board board_arm = {
     .max_angle_ddeg = 3600, .current_limit = 30, .default_baud = 9600,
     .return_delay = 16, .photo_switches = 1, .counts_per_rev = 16384,
     .supply_min_mv = 9000, .supply_max_mv = 15000, .homing_dps = 60, .homing_travel_deg = 800,
+    .duty_per_amp = 166, /* 2 ohm at 12 V */
 };
 
 const struct board board_wrist = {
@@ -31,6 +34,7 @@ const struct board board_wrist = {
     .max_angle_ddeg = 2700, .current_limit = 20, .default_baud = 9600,
     .return_delay = 16, .photo_switches = 1, .counts_per_rev = 16384,
     .supply_min_mv = 9000, .supply_max_mv = 15000, .homing_dps = 60, .homing_travel_deg = 800,
+    .duty_per_amp = 166, /* 2 ohm at 12 V */
 };
 
 const struct board board_finger = {
@@ -38,6 +42,7 @@ const struct board board_finger = {
     .max_angle_ddeg = 1800, .current_limit = 10, .default_baud = 9600,
     .return_delay = 16, .photo_switches = 1, .counts_per_rev = 16384,
     .supply_min_mv = 9000, .supply_max_mv = 15000, .homing_dps = 60, .homing_travel_deg = 800,
+    .duty_per_amp = 166, /* 2 ohm at 12 V */
 };
 
 static const struct board *const boards_all[] = {

@@ -30,6 +30,8 @@ struct board {
     uint16_t supply_max_mv;    /* over-voltage above this */
     uint16_t homing_dps;       /* homing speed, degrees/s */
     uint16_t homing_travel_deg; /* a switch not found within this travel fails homing */
+    uint16_t duty_per_amp;     /* winding resistance / supply x 1000: duty that drives 1 A
+                                * into a motor at rest (current limiting) */
 };
 
 extern const struct board board_base, board_foot, board_arm, board_wrist, board_finger;

@@ -485,8 +485,12 @@ static void measure(struct servo *s)
 }
 
 /* Position loop with speed and friction feed-forward, and an integral term while the
- * reference rests (so static friction cannot leave a standing error); returns the duty. */
-static int16_t control(struct motion *m)
+ * reference rests (so static friction cannot leave a standing error); returns the duty,
+ * limited so the winding current stays under 80 % of register 12: the current follows
+ * the difference between the drive and the back-EMF, which the speed feed-forward
+ * constant measures in duty units. So a reversal at speed or a hard stop brakes at the
+ * current limit instead of tripping the over-current protection. */
+static int16_t control(const struct servo *s, struct motion *m)
 {
     int64_t ref = (m->plan.pos + PLANNER_ONE / 2) >> PLANNER_SHIFT;
     int64_t err = ref - m->counts;
@@ -503,6 +507,15 @@ static int16_t control(struct motion *m)
                    ((int64_t)KD * (vref_q8 - m->vel_q8)) / 256 + (m->integral >> KI_SHIFT);
     if (m->plan.vel)
         duty += m->plan.vel > 0 ? KFRICTION : -KFRICTION;
+    uint8_t limit = s->regs.mem[REG_CURRENT_LIMIT]; /* 0.1 A; 0 = no limit */
+    if (limit) {
+        int64_t emf = ((int64_t)KFF * m->vel_q8) / 256;
+        int64_t band = ((int64_t)limit * s->board->duty_per_amp * 8) / 100;
+        if (duty > emf + band)
+            duty = emf + band;
+        if (duty < emf - band)
+            duty = emf - band;
+    }
     if (duty > HAL_DUTY_MAX)
         duty = HAL_DUTY_MAX;
     if (duty < -HAL_DUTY_MAX)
@@ -565,7 +578,7 @@ static void tick(struct servo *s)
     if (m->mode == MOTION_OFF) {
         m->duty = 0;
     } else {
-        m->duty = control(m);
+        m->duty = control(s, m);
         hal_motor_drive(s->hal, (int16_t)(m->duty * m->sign));
     }
 }

@@ -6,7 +6,7 @@
 
 #define ACC_TRIP 200u    /* ~50 ms of a steady fault (4 up per bad tick, 1 down per good) */
 #define TEMP_TRIP 2000u  /* ~0.5 s for temperature */
-#define STALL_DUTY 800   /* per mille: pushing hard ... */
+#define STALL_DUTY 800   /* per mille, or 70 % of the current limit: pushing hard ... */
 #define STALL_SPEED_Q8 64 /* ... while turning less than 1/4 count per tick ... */
 #define STALL_TICKS 300u /* ... for 300 ms */
 
@@ -55,13 +55,17 @@ uint8_t safety_tick(struct servo *s, bool moving)
     /* Over-current trips at once: a short circuit does not wait for a filter. A limit of
      * 0 means no limit. */
     uint8_t limit = r->mem[REG_CURRENT_LIMIT];
-    if (limit && hal_motor_current_ma(s->hal) > (uint16_t)(limit * 100u))
+    uint16_t ma = hal_motor_current_ma(s->hal);
+    if (limit && ma > (uint16_t)(limit * 100u))
         now |= ERR_OVER_CURRENT;
 
+    /* The motion layer limits the current, so a jammed shaft shows as a current near the
+     * limit (or a drive near full when there is no limit) with no movement. */
     int16_t duty = s->motion.duty;
     int32_t v = s->motion.vel_q8;
-    bool pushing = moving && (duty >= STALL_DUTY || duty <= -STALL_DUTY) &&
-                   v < STALL_SPEED_Q8 && v > -STALL_SPEED_Q8;
+    bool hard = (limit && ma >= (uint16_t)(limit * 70u)) || duty >= STALL_DUTY ||
+                duty <= -STALL_DUTY;
+    bool pushing = moving && hard && v < STALL_SPEED_Q8 && v > -STALL_SPEED_Q8;
     sf->stall_ticks = pushing ? (uint16_t)(sf->stall_ticks + 1u) : 0u;
     if (sf->stall_ticks >= STALL_TICKS)
         now |= ERR_STALL;

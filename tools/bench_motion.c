@@ -65,6 +65,7 @@ int main(int argc, char **argv)
     long n = strtol(argv[2], 0, 10);
     memset(flash, 0xFF, sizeof flash);
     servo_init(&s, &board_foot, &hal);
+    s.regs.mem[REG_HEARTBEAT_ENABLE] = 0; /* no host talks here: the heartbeat would stop it */
     write16(REG_CW_LIMIT, 0);
     write16(REG_CCW_LIMIT, 30000);
     write16(REG_MOVING_SPEED, 90);

@@ -60,6 +60,7 @@ static double move(int dist, int speed, int acc, int dec, FILE *csv)
 {
     hal_host_init(&hal);
     servo_init(&s, &board_foot, &hal);
+    s.regs.mem[REG_HEARTBEAT_ENABLE] = 0; /* no host talks here: the heartbeat would stop it */
     write16(REG_CCW_LIMIT, 3600);
     s.regs.mem[REG_ACCELERATION] = (uint8_t)acc;
     s.regs.mem[REG_DECELERATION] = (uint8_t)dec;
