@@ -1255,6 +1255,29 @@ static void resolution_change_stops(void **state)
  * measured-speed filter), in either direction. Kept last: the negative direction runs
  * engage() in src/motion.c with a negative measured speed, which UBSan reports (and
  * aborts on) when the core itself is built with the sanitizers. */
+/* A load's weight on the arm (the plant's gravity term): a move lands and the arm holds
+ * against the weight with no standing error (integral action at rest), and a sag when
+ * the drive is off is the weight, not the firmware. */
+static void holds_against_gravity(void **state)
+{
+    (void)state;
+    ready(&board_arm);
+    hal.motor.p.gravity = 0.05; /* N m at the output: a quarter of the holding torque */
+    w16(REG_MOVING_SPEED, 90);
+    w16(REG_GOAL_POSITION, 180);
+    run_ms(4000);
+    int64_t goal = (int64_t)180 * 16384 / 360 + s.motion.zero;
+    if (llabs(s.motion.counts - goal) > 2)
+        fail_msg("arm under load rests %lld counts from the goal",
+                 (long long)(s.motion.counts - goal));
+    int64_t c = s.motion.counts;
+    run_ms(2000);
+    assert_true(llabs(s.motion.counts - c) <= 1);
+    assert_int_equal(s.regs.mem[REG_MOVING], 0);
+    assert_int_equal(regs_get(&s.regs, REG_TURNED_ANGLE), 180);
+    hal.motor.p.gravity = 0.0;
+}
+
 static void reengage_while_coasting(void **state)
 {
     (void)state;
@@ -1297,6 +1320,7 @@ int main(void)
         cmocka_unit_test(custom_move),
         cmocka_unit_test(trajectories),
         cmocka_unit_test(resolution_change_stops),
+        cmocka_unit_test(holds_against_gravity),
         cmocka_unit_test(reengage_while_coasting), /* last: see there */
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -27,7 +27,8 @@ static void step(struct motor_sim *m, double dt)
     double back_emf = p->kt * p->gear * m->omega;
     /* Coasting (duty 0 or disabled): the bridge is open, no current flows back. */
     m->current = (m->enabled && m->duty) ? (volts - back_emf) / p->resistance : 0.0;
-    double torque = p->kt * m->current * p->gear - p->viscous * m->omega;
+    double torque = p->kt * m->current * p->gear - p->viscous * m->omega -
+                    p->gravity * cos(m->theta);
     double friction = p->coulomb;
     if (m->blocked) {
         m->omega = 0.0;

@@ -16,6 +16,7 @@ struct motor_params {
     double inertia;       /* kg m^2 at the output */
     double viscous;       /* N m s / rad at the output */
     double coulomb;       /* N m at the output */
+    double gravity;       /* N m of a load's weight at the output, at angle 0 (cos law) */
     uint32_t counts_per_rev; /* encoder counts per output turn */
 };
 
