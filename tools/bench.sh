@@ -57,3 +57,5 @@ echo
 echo
 "$build/tools/bench_safety"
 /usr/bin/python3 tools/bench_sim.py "$build"
+echo
+"$build/tests/corruption" 1000000
