@@ -47,6 +47,9 @@ firmware: deps
 	@for b in $(BOARDS); do cat build/stm32-$$b/servo-$$b.size; done | \
 	    awk '{ printf "%-7s %7d  %6.1f%%    %6d  %6.1f%%    (%d + %d + %d + %d)\n", \
 	           $$1, $$2, 100 * $$2 / 32768, $$3, 100 * $$3 / 6144, $$4, $$5, $$6, $$7 }'
+	@echo
+	@echo "worst-case stack per entry point (-fstack-usage + call graph; budget 75% of reserved)"
+	@for b in $(BOARDS); do echo "$$b"; cat build/stm32-$$b/servo-$$b.stack; done
 
 # Write BOARD's image over the STM32 serial bootloader (BOOT0 high, then reset): the
 # wiring is in board/README.md. The store's pages at the top of flash are left alone.

@@ -47,7 +47,7 @@ add_custom_command(TARGET ${image}.elf POST_BUILD
     COMMAND ${SERVO_PYTHON3} ${CMAKE_SOURCE_DIR}/hal/stm32f1/check_isr_ram.py
             $<TARGET_FILE:${image}.elf>
     COMMAND ${SERVO_PYTHON3} ${CMAKE_SOURCE_DIR}/hal/stm32f1/stack_report.py
-            $<TARGET_FILE:${image}.elf> ${CMAKE_BINARY_DIR}
+            $<TARGET_FILE:${image}.elf> ${CMAKE_BINARY_DIR} ${CMAKE_BINARY_DIR}/${image}.stack
     COMMAND ${CMAKE_COMMAND} -DNM=arm-none-eabi-nm -DELF=$<TARGET_FILE:${image}.elf>
             -DBOARD=${BOARD} -DOUT=${CMAKE_BINARY_DIR}/${image}.size
             -P ${CMAKE_SOURCE_DIR}/cmake/check-budget.cmake
@@ -55,6 +55,7 @@ add_custom_command(TARGET ${image}.elf POST_BUILD
     COMMAND ${CMAKE_OBJCOPY} -O ihex $<TARGET_FILE:${image}.elf> ${CMAKE_BINARY_DIR}/${image}.hex
     BYPRODUCTS ${CMAKE_BINARY_DIR}/${image}.bin ${CMAKE_BINARY_DIR}/${image}.hex
                ${CMAKE_BINARY_DIR}/${image}.map ${CMAKE_BINARY_DIR}/${image}.size
+               ${CMAKE_BINARY_DIR}/${image}.stack
     VERBATIM)
 
 # The porting checklist compiles against hal.h (signatures kept in step); never linked.

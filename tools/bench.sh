@@ -41,6 +41,14 @@ if [ -f build/stm32/servo-arm.elf ]; then
     done
 fi
 echo
+if ls build/stm32-*/servo-*.stack >/dev/null 2>&1; then
+    echo "== worst-case stack per entry point, STM32 images (make firmware; budget 75% of reserved)"
+    for f in build/stm32-*/servo-*.stack; do
+        basename "$f" .stack
+        cat "$f"
+    done
+fi
+echo
 "$build/tools/bench_store"
 echo
 echo "== motion layer, host x86-64 instructions (callgrind; own ideal-motor HAL)"
