@@ -149,17 +149,19 @@ static bool send(const uint8_t *b, uint32_t n, const uint8_t *want, uint32_t wn)
     /* Past the inter-byte time-out (2 ms) and any answer. */
     uint32_t end = hal.now_us + 3000u;
     for (int guard = 0; guard < 400; guard++) {
-        const struct frame *f = frame_rx_peek(&servo.rx);
+        /* A frame may become ready inside servo_poll() (the receiver's time-out), so the
+         * dispatched one is looked up afterwards, in the slot the ring's old tail named. */
         uint8_t tail = servo.rx.ready_tail;
-        bool differs = false, ok = false;
-        if (f) {
-            ok = f->status == FRAME_OK;
-            differs = f->len != wn - 2u || memcmp(f->buf, &want[2], f->len) != 0;
-        }
         poll();
-        if (f && ok && differs && servo.rx.ready_tail != tail)
-            escape = true;
-        if ((int32_t)(hal.now_us - end) >= 0 && !f && servo.link.state == LINK_IDLE)
+        bool dispatched = servo.rx.ready_tail != tail;
+        if (dispatched) {
+            const struct frame *f = &servo.rx.slot[servo.rx.ready[tail & (FRAME_SLOTS - 1u)]];
+            if (f->status == FRAME_OK &&
+                (f->len != wn - 2u || memcmp(f->buf, &want[2], f->len) != 0))
+                escape = true;
+        }
+        if ((int32_t)(hal.now_us - end) >= 0 && !dispatched && !frame_rx_peek(&servo.rx) &&
+            servo.link.state == LINK_IDLE)
             break;
         hal.now_us += 250u;
     }

@@ -123,29 +123,27 @@ static bool writes_speed0(const uint8_t *buf, uint16_t len)
     return (p[0] | ((p[1] & 0x7Fu) << 8)) == 0u;
 }
 
-/* One main-loop pass, watching which frame it dispatches. */
+/* One main-loop pass, watching which frame it dispatches. The frame may have become
+ * ready inside servo_poll() (the receiver's time-out releases frames held behind a broken
+ * one), so it is looked up afterwards: the slot the ring's old tail named, untouched by
+ * the receive interrupt, which cannot run during the pass here. */
 static void poll_once(void)
 {
-    const struct frame *f = frame_rx_peek(&servo.rx);
     uint8_t tail = servo.rx.ready_tail;
-    uint8_t buf[FRAME_BYTES];
-    uint16_t len = 0;
-    bool ok = false;
     uint8_t my_id = servo.link.id;
-    if (f) {
-        len = f->len;
-        memcpy(buf, f->buf, len);
-        ok = f->status == FRAME_OK;
-    }
     servo_poll(&servo);
-    if (f && servo.rx.ready_tail != tail) { /* dispatched */
+    if (servo.rx.ready_tail != tail) { /* dispatched */
+        const struct frame *f = &servo.rx.slot[servo.rx.ready[tail & (FRAME_SLOTS - 1u)]];
+        const uint8_t *buf = f->buf;
+        bool ok = f->status == FRAME_OK;
         if (buf[0] == PROTO_ID_BROADCAST && !(ok && buf[2] == INS_PING))
             CHECK(servo.link.state == LINK_IDLE); /* invariant 2 */
         if (ok) {
             speed0_window = false;
             if (buf[2] != INS_PING && buf[2] != INS_READ)
                 motion_commanded = true;
-            if ((buf[0] == my_id || buf[0] == PROTO_ID_BROADCAST) && writes_speed0(buf, len) &&
+            if ((buf[0] == my_id || buf[0] == PROTO_ID_BROADCAST) &&
+                writes_speed0(buf, f->len) &&
                 (regs_get(&servo.regs, REG_MOVING_SPEED) & 0x7FFFu) == 0u)
                 speed0_window = true;
         }
