@@ -6,7 +6,7 @@ pkgs=(cmake make gcc libc6-dev libcmocka-dev pkg-config gcc-arm-none-eabi
       libnewlib-arm-none-eabi binutils-arm-none-eabi valgrind python3 python3-serial
       python3-pytest python3-matplotlib)
 pkgs+=(qemu-system-arm) # the STM32 image under QEMU (tests/qemu_ping.py)
-pkgs+=(cppcheck clang-tidy clang libclang-rt-14-dev) # make lint, the fuzz harness
+pkgs+=(cppcheck clang-tidy clang libclang-rt-14-dev llvm-14) # make lint; make fuzz (llvm-cov)
 missing=()
 for p in "${pkgs[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
