@@ -154,6 +154,15 @@ void regs_read(const struct regs *r, uint8_t addr, uint8_t count, uint8_t *out);
  * applicable, in range, and CW limit <= CCW limit afterwards. Returns true if valid. */
 bool regs_write_valid(const struct regs *r, uint8_t addr, const uint8_t *data, uint8_t n);
 
+/* True if v is within the range of the register that starts at addr. */
+bool regs_in_range(uint8_t addr, uint16_t v);
+
+/* The invariant a host can never break: the first register of r that holds a value its
+ * descriptor refuses (a writable register out of range; for homing, the command nibble;
+ * the CW limit above the CCW limit reports the CW limit), or REGS_SIZE if there is none.
+ * Register 25 is a command and is not checked. */
+uint8_t regs_first_invalid(const struct regs *r);
+
 /* True if [addr, addr + n) touches a register of the given area. */
 bool regs_touches_area(uint8_t addr, uint8_t n, uint8_t area);
 

@@ -183,7 +183,7 @@ bool regs_write_valid(const struct regs *r, uint8_t addr, const uint8_t *data, u
         if (!regs_applicable(r->board, a) || !(d->access & REG_ACCESS_W) || d->size > n - i)
             return false;
         uint16_t v = regs_value(&data[i], d->size);
-        if (v < d->min || v > d->max)
+        if (!regs_in_range(a, v))
             return false;
         if (a == REG_CW_LIMIT)
             cw = v;
@@ -192,6 +192,27 @@ bool regs_write_valid(const struct regs *r, uint8_t addr, const uint8_t *data, u
         i = (uint8_t)(i + d->size);
     }
     return cw <= ccw;
+}
+
+bool regs_in_range(uint8_t addr, uint16_t v)
+{
+    return v >= regs_table[addr].min && v <= regs_table[addr].max;
+}
+
+uint8_t regs_first_invalid(const struct regs *r)
+{
+    for (uint8_t a = 0; a < REGS_SIZE; a++) {
+        const struct reg_desc *d = &regs_table[a];
+        if (!regs_applicable(r->board, a) || !(d->access & REG_ACCESS_W) ||
+            a == REG_CLEAR_UNLOAD)
+            continue;
+        uint16_t v = regs_get(r, a);
+        if (a == REG_HOMING)
+            v &= 0x0Fu; /* the high nibble is the status the servo reports */
+        if (!regs_in_range(a, v))
+            return a;
+    }
+    return regs_get(r, REG_CW_LIMIT) > regs_get(r, REG_CCW_LIMIT) ? REG_CW_LIMIT : REGS_SIZE;
 }
 
 bool regs_touches_area(uint8_t addr, uint8_t n, uint8_t area)

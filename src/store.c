@@ -157,7 +157,7 @@ void store_load(struct store *st, struct hal *hal, struct regs *r, uint32_t now_
             continue;
         uint8_t n = regs_table[a].size;
         uint16_t v = regs_value(&st->saved[a], n);
-        if (v >= regs_table[a].min && v <= regs_table[a].max)
+        if (regs_in_range(a, v))
             regs_set(r, a, v);
     }
     if (regs_get(r, REG_CW_LIMIT) > regs_get(r, REG_CCW_LIMIT)) {

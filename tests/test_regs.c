@@ -475,9 +475,33 @@ static void present_position_register_per_variant(void **state)
     assert_int_equal(regs_present_position(&f), 321);
 }
 
+/* The invariant the fuzzer and the random-traffic tests check, derived from the table. */
+static void first_invalid_register(void **state)
+{
+    (void)state;
+    struct regs r;
+    regs_init(&r, &board_arm);
+    assert_int_equal(regs_first_invalid(&r), REGS_SIZE);
+    r.mem[REG_HOMING] = 0x31; /* status 3 (failed), command 1: valid */
+    assert_int_equal(regs_first_invalid(&r), REGS_SIZE);
+    r.mem[REG_HOMING] = 0x02; /* command 2 was never accepted */
+    assert_int_equal(regs_first_invalid(&r), REG_HOMING);
+    regs_init(&r, &board_arm);
+    r.mem[REG_STATUS_RETURN_LEVEL] = 3;
+    assert_int_equal(regs_first_invalid(&r), REG_STATUS_RETURN_LEVEL);
+    regs_init(&r, &board_arm);
+    regs_set(&r, REG_CW_LIMIT, 200);
+    regs_set(&r, REG_CCW_LIMIT, 100);
+    assert_int_equal(regs_first_invalid(&r), REG_CW_LIMIT);
+    regs_init(&r, &board_arm);
+    r.mem[REG_PRESENT_TEMPERATURE] = 0xFF; /* read-only state: not the host's to break */
+    assert_int_equal(regs_first_invalid(&r), REGS_SIZE);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(first_invalid_register),
         cmocka_unit_test(descriptors_are_sane),
         cmocka_unit_test(sixteen_bit_registers_are_the_specs),
         cmocka_unit_test(no_overlapping_registers),

@@ -214,14 +214,7 @@ static void assert_sane_servo(void)
     static struct servo s;
     hal_host_reboot(&hal);
     servo_init(&s, &board_arm, &hal);
-    for (uint8_t a = 0; a < REGS_SIZE; a++) {
-        const struct reg_desc *d = &regs_table[a];
-        if (!regs_applicable(s.board, a) || !(d->access & REG_ACCESS_W) || a == REG_CLEAR_UNLOAD)
-            continue;
-        uint16_t v = regs_get(&s.regs, a);
-        assert_true(v >= d->min && v <= d->max);
-    }
-    assert_true(regs_get(&s.regs, REG_CW_LIMIT) <= regs_get(&s.regs, REG_CCW_LIMIT));
+    assert_int_equal(regs_first_invalid(&s.regs), REGS_SIZE);
     assert_int_equal(regs_get(&s.regs, REG_GOAL_POSITION), regs_present_position(&s.regs));
     assert_int_equal(s.regs.mem[REG_MOVING], 0);
     assert_int_equal(regs_get(&s.regs, REG_MOVING_SPEED), 0);
