@@ -1,0 +1,37 @@
+/* board/ref_pcb.h - what every reference board shares: one PCB design, an STM32F103C8
+ * (64 KiB flash, 20 KiB RAM; a GD32F103C8 fits too), fitted per variant. Included by
+ * each board/<name>/board_pins.h, which adds what differs: the position sensor, the
+ * current shunt and the photo switches. Model number, range, limits and bus defaults
+ * are in board/boards.c, the single source of those. */
+#ifndef BOARD_REF_PCB_H
+#define BOARD_REF_PCB_H
+
+#define BOARD_HSE_HZ 8000000u /* crystal; the clock code falls back to HSI without it */
+
+/* Bus: USART1 through a half-duplex RS485 transceiver (DE and /RE tied together). */
+#define BOARD_PIN_UART_TX PIN('A', 9)
+#define BOARD_PIN_UART_RX PIN('A', 10)
+#define BOARD_PIN_RS485_DE PIN('A', 12)   /* high: driver on */
+#define BOARD_PIN_RS485_TERM PIN('B', 1)  /* high: 120 ohm terminator switched in */
+
+/* Motor: two-input H-bridge (IN1/IN2, coast when both low), PWM on TIM3 CH1/CH2. */
+#define BOARD_PIN_PWM_A PIN('A', 6)     /* TIM3_CH1 -> IN1: positive direction */
+#define BOARD_PIN_PWM_B PIN('A', 7)     /* TIM3_CH2 -> IN2: negative direction */
+#define BOARD_PIN_DRIVER_EN PIN('B', 0) /* high: bridge awake (nSLEEP) */
+#define BOARD_PWM_HZ 20000u
+#define BOARD_MOTOR_INVERT 0
+
+/* Analog inputs (ADC1 channel = PAn for n < 8), 3.3 V full scale. */
+#define BOARD_ADC_CURRENT 2u        /* PA2: shunt amplifier output */
+#define BOARD_ADC_SUPPLY 3u         /* PA3: supply divider */
+#define BOARD_ADC_TEMP 4u           /* PA4: MCP9700A-type sensor, 500 mV at 0 C, 10 mV/C */
+#define BOARD_SUPPLY_MV_FS 19800u /* mV at ADC full scale: 10k/2k divider */
+#define BOARD_TEMP_MV_AT_0C 500u
+#define BOARD_TEMP_UV_PER_DC 1000u  /* 10 mV per degree = 1000 uV per 0.1 C */
+
+/* Homing photo switches, where fitted (slotted, open collector, pulled up: high = light
+ * path interrupted). */
+#define BOARD_REF_PIN_PHOTO1 PIN('B', 12)
+#define BOARD_REF_PIN_PHOTO2 PIN('B', 13)
+
+#endif
