@@ -28,16 +28,15 @@ void servo_poll(struct servo *s)
 {
     uint32_t now = hal_clock_us(s->hal);
     motion_poll(s, now);
-    /* Fed only while the control tick keeps time and this loop (the bus) runs. */
-    if (now - s->motion.tick_us < 10u * MOTION_TICK_US)
-        hal_watchdog_feed(s->hal);
+    /* The control tick and the bus handling both run in this loop, so feeding here once
+     * per pass proves both alive: a hang in either stops the feeding. */
+    hal_watchdog_feed(s->hal);
     uint32_t irq = hal_irq_save(s->hal);
     bool rx_idle = frame_rx_idle(&s->rx, now);
     hal_irq_restore(s->hal, irq);
     bool link_idle = link_poll(s, now, rx_idle);
     /* Flash work (an erase stalls the CPU) only while nothing moves and the bus rests. */
-    store_poll(&s->store, &s->regs, now,
-               link_idle && rx_idle && s->link.state == LINK_IDLE && !s->regs.mem[REG_MOVING]);
+    store_poll(&s->store, &s->regs, now, link_idle && rx_idle && !s->regs.mem[REG_MOVING]);
     if (!link_idle)
         return;
     const struct frame *f = frame_rx_peek(&s->rx);
