@@ -6,7 +6,7 @@
 #include "board.h"
 
 const struct board board_base = {
-    .name = "base", .variant = VARIANT_BASE, .model_number = 0x5201,
+    .name = "base", .variant = VARIANT_BASE, .model_number = BOARD_MODEL_BASE,
     .max_angle_ddeg = 0, .current_limit = 50, .default_baud = 115200,
     .return_delay = 8, .photo_switches = 0, .counts_per_rev = 16384,
     .supply_min_mv = 9000, .supply_max_mv = 15000, .homing_dps = 60, .homing_travel_deg = 800,
@@ -14,7 +14,7 @@ const struct board board_base = {
 };
 
 const struct board board_foot = {
-    .name = "foot", .variant = VARIANT_FOOT, .model_number = 0x5202,
+    .name = "foot", .variant = VARIANT_FOOT, .model_number = BOARD_MODEL_FOOT,
     .max_angle_ddeg = 3600, .current_limit = 40, .default_baud = 9600,
     .return_delay = 16, .photo_switches = 0, .counts_per_rev = 16384,
     .supply_min_mv = 9000, .supply_max_mv = 15000, .homing_dps = 60, .homing_travel_deg = 800,
@@ -22,7 +22,7 @@ const struct board board_foot = {
 };
 
 const struct board board_arm = {
-    .name = "arm", .variant = VARIANT_ARM, .model_number = 0x5203,
+    .name = "arm", .variant = VARIANT_ARM, .model_number = BOARD_MODEL_ARM,
     .max_angle_ddeg = 3600, .current_limit = 30, .default_baud = 9600,
     .return_delay = 16, .photo_switches = 1, .counts_per_rev = 16384,
     .supply_min_mv = 9000, .supply_max_mv = 15000, .homing_dps = 60, .homing_travel_deg = 800,
@@ -30,7 +30,7 @@ const struct board board_arm = {
 };
 
 const struct board board_wrist = {
-    .name = "wrist", .variant = VARIANT_WRIST, .model_number = 0x5204,
+    .name = "wrist", .variant = VARIANT_WRIST, .model_number = BOARD_MODEL_WRIST,
     .max_angle_ddeg = 2700, .current_limit = 20, .default_baud = 9600,
     .return_delay = 16, .photo_switches = 1, .counts_per_rev = 16384,
     .supply_min_mv = 9000, .supply_max_mv = 15000, .homing_dps = 60, .homing_travel_deg = 800,
@@ -38,7 +38,7 @@ const struct board board_wrist = {
 };
 
 const struct board board_finger = {
-    .name = "finger", .variant = VARIANT_FINGER, .model_number = 0x5205,
+    .name = "finger", .variant = VARIANT_FINGER, .model_number = BOARD_MODEL_FINGER,
     .max_angle_ddeg = 1800, .current_limit = 10, .default_baud = 9600,
     .return_delay = 16, .photo_switches = 1, .counts_per_rev = 16384,
     .supply_min_mv = 9000, .supply_max_mv = 15000, .homing_dps = 60, .homing_travel_deg = 800,

@@ -21,10 +21,15 @@ target_link_libraries(hal_host PUBLIC m)
 target_include_directories(hal_host PUBLIC hal hal/host include)
 target_compile_options(hal_host PRIVATE ${SERVO_WARNINGS})
 
+# Synthetic application images (hal_host_image_build): the core's CRC-32 stamps them.
+add_library(image_host STATIC hal/host/image_host.c)
+target_link_libraries(image_host PUBLIC servo_core hal_host)
+target_compile_options(image_host PRIVATE ${SERVO_WARNINGS})
+
 # The virtual bus: several host-built servos and a host on one wire, in virtual time.
 add_library(vbus STATIC hal/host/vbus.c)
 target_include_directories(vbus PUBLIC hal/host)
-target_link_libraries(vbus PUBLIC servo_core hal_host)
+target_link_libraries(vbus PUBLIC servo_core hal_host image_host)
 target_compile_options(vbus PRIVATE ${SERVO_WARNINGS})
 
 add_subdirectory(tools)

@@ -36,13 +36,22 @@ bool hal_uart_tx_busy(struct hal *h);
 uint32_t hal_irq_save(struct hal *h);
 void hal_irq_restore(struct hal *h, uint32_t state);
 
-/* Flash of the emulated EEPROM: HAL_FLASH_PAGES pages of HAL_FLASH_PAGE_BYTES that the
- * persistent store owns (STM32F1: 1 KiB pages at the end of the application's flash).
+/* Flash the core owns, in pages of HAL_FLASH_PAGE_BYTES numbered by the core (the port
+ * maps them to addresses; the bootloader's own flash is not among them):
+ *   pages 0 .. HAL_FLASH_PAGES-1          the persistent store (store.c)
+ *   HAL_PAGE_APP .. +HAL_SLOT_PAGES-1     the application slot: the image that runs
+ *   HAL_PAGE_STAGING .. +HAL_SLOT_PAGES-1 the staging slot: where an update arrives
+ * (STM32F103x8, 64 KiB: bootloader 6 KiB at 0x08000000, application 27 KiB at
+ * 0x08001800, staging 27 KiB at 0x08008400, store 4 KiB at 0x0800F000.)
  * Erased flash reads 0xFF; programming only clears bits, one aligned half-word at a time.
  * Program and erase may stall the CPU (tens of ms for an erase); main loop only.
  * Both return false if the operation failed (the store then treats the page as bad). */
 #define HAL_FLASH_PAGE_BYTES 1024u
 #define HAL_FLASH_PAGES 4u
+#define HAL_SLOT_PAGES 27u
+#define HAL_PAGE_APP HAL_FLASH_PAGES
+#define HAL_PAGE_STAGING (HAL_PAGE_APP + HAL_SLOT_PAGES)
+#define HAL_PAGES_ALL (HAL_PAGE_STAGING + HAL_SLOT_PAGES)
 
 /* Memory-mapped, read-only view of page p. Any context. */
 const uint8_t *hal_flash_page(struct hal *h, uint8_t p);
@@ -52,6 +61,11 @@ bool hal_flash_erase(struct hal *h, uint8_t p);
 
 /* Program the half-word at byte offset off (even) of page p; the half-word was erased. */
 bool hal_flash_program(struct hal *h, uint8_t p, uint16_t off, uint16_t value);
+
+/* Reset the MCU (the bootloader runs again and starts the installed image). Main loop,
+ * after the last answer has left the wire. Does not return on an MCU; the host port
+ * records the request and its harness power-cycles the servo. */
+void hal_restart(struct hal *h);
 
 /* Motor, sensors and board outputs. Called from the control tick, which runs in the main
  * loop (servo_poll), never from an interrupt.

@@ -16,6 +16,14 @@ enum variant {
     VARIANT_COUNT
 };
 
+/* Model numbers (registers 0-1). Here as constants because the STM32 image's info block
+ * (image.h) states its board's model in a static initializer. */
+#define BOARD_MODEL_BASE 0x5201u
+#define BOARD_MODEL_FOOT 0x5202u
+#define BOARD_MODEL_ARM 0x5203u
+#define BOARD_MODEL_WRIST 0x5204u
+#define BOARD_MODEL_FINGER 0x5205u
+
 struct board {
     const char *name;          /* "base", "foot", "arm", "wrist", "finger" */
     uint8_t variant;           /* enum variant */

@@ -11,7 +11,12 @@
  * a good checksum inside it are delivered after it, in order, and a running shadow takes
  * over; so a lost byte costs only the packet it was in, even when its stated length
  * swallows several packets sent back to back. If the frame in progress is good, the
- * shadows inside it were its payload and are dropped. */
+ * shadows inside it were its payload and are dropped.
+ *
+ * The one oversize frame (PROTOCOL.md §10): LEN = 0xFF with INS 0xFF, sub 0xFE and block
+ * type 0x02 is a firmware data block of 1031 bytes after LEN, plus CHK. The receiver
+ * moves it into the single block buffer once those three bytes have arrived; every other
+ * frame keeps the length its LEN states. */
 #ifndef FRAME_RX_H
 #define FRAME_RX_H
 
@@ -20,6 +25,9 @@
 
 #define FRAME_SLOTS 4u    /* power of two: frames buffered between ISR and main loop */
 #define FRAME_BYTES 257u  /* ID, LEN and the LEN bytes it counts (INS, params, CHK) */
+#define FRAME_BLOCK_BYTES (2u + 1031u + 1u) /* ID, LEN, a §10 data block, CHK */
+#define FRAME_BLOCK FRAME_SLOTS /* queue entry meaning "the block buffer" */
+#define FRAME_READY (2u * FRAME_SLOTS) /* queue entries: every slot and the block */
 
 enum frame_status { FRAME_OK, FRAME_BAD_CHECKSUM };
 
@@ -31,18 +39,28 @@ struct frame {
     uint8_t buf[FRAME_BYTES];
 };
 
+/* The §10 data block, same fields as struct frame. */
+struct frame_block {
+    uint32_t end_us;
+    uint16_t len; /* FRAME_BLOCK_BYTES */
+    uint8_t status;
+    uint8_t buf[FRAME_BLOCK_BYTES];
+};
+
 /* Parse state of one candidate frame (ISR only). */
 struct frame_parser {
     uint16_t pos;  /* bytes stored so far */
     uint16_t need; /* total bytes once LEN is known */
-    uint8_t slot;  /* index into frame_rx.slot */
+    uint8_t slot;  /* index into frame_rx.slot, or FRAME_BLOCK */
     uint8_t sum;
 };
 
 struct frame_rx {
     struct frame slot[FRAME_SLOTS];
+    struct frame_block block;
+    uint8_t block_busy; /* block taken by a parser or published; ISR sets, release clears */
     /* Published frames: ISR writes ready_head, main loop writes ready_tail. */
-    uint8_t ready[FRAME_SLOTS];
+    uint8_t ready[FRAME_READY];
     uint8_t ready_head, ready_tail;
     /* Slots given back by the main loop: main writes free_head, ISR writes free_tail. */
     uint8_t free_ring[FRAME_SLOTS];
@@ -51,7 +69,7 @@ struct frame_rx {
     struct frame_parser main, shadow;
     uint8_t spare[FRAME_SLOTS]; /* slots the ISR dropped, reused before free_ring */
     uint8_t spare_count;
-    uint8_t waiting[FRAME_SLOTS]; /* complete good shadows, oldest first */
+    uint8_t waiting[FRAME_SLOTS + 1u]; /* complete good shadows, oldest first */
     uint8_t waiting_count;
     uint8_t in_frame;       /* 1 while main is a frame in progress */
     uint8_t shadow_running; /* 1 while shadow is a frame in progress */
@@ -80,10 +98,14 @@ bool frame_rx_idle(struct frame_rx *rx, uint32_t now_us);
 /* Main loop, irq masked: the baud rate changed; so do the time-outs. */
 void frame_rx_set_baud(struct frame_rx *rx, uint32_t baud);
 
-/* Main loop: the oldest published frame, or 0. Stays valid until frame_rx_release(). */
+/* Main loop: the oldest published frame, or 0 (none, or the oldest is the data block).
+ * Stays valid until frame_rx_release(). */
 const struct frame *frame_rx_peek(struct frame_rx *rx);
 
-/* Main loop: give the frame returned by frame_rx_peek() back to the receiver. */
+/* Main loop: the data block if it is the oldest published frame, or 0. */
+const struct frame_block *frame_rx_peek_block(struct frame_rx *rx);
+
+/* Main loop: give the oldest published frame (or block) back to the receiver. */
 void frame_rx_release(struct frame_rx *rx);
 
 #endif

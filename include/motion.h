@@ -82,6 +82,9 @@ uint8_t motion_traj_action(struct servo *s);
 /* CUSTOM MOVE (§4.8). Returns 0 or ERR_INSTRUCTION. */
 uint8_t motion_custom_move(struct servo *s, const struct custom_move *m);
 
+/* Torque off at once and stay off until the next motion command (a firmware update). */
+void motion_torque_off(struct servo *s);
+
 /* RESET: stop everything and forget the homing reference. */
 void motion_reset(struct servo *s);
 

@@ -13,6 +13,7 @@
 #include "safety.h"
 #include "store.h"
 #include "traj.h"
+#include "update.h"
 
 struct hal;
 
@@ -34,7 +35,11 @@ struct servo {
     struct store store;
     struct motion motion;
     struct safety safety;
+    struct update update; /* §10 session */
     uint8_t live_err; /* ERR bits 0-3 and 6, owned by the safety layer */
+    uint8_t fw_version; /* register 2: the running image's version */
+    uint8_t in_loader;  /* running update mode (loader.h), not the application */
+    uint8_t restart;    /* restart once the answer in progress has left the wire */
 };
 
 /* Power-up: factory table with the stored EEPROM registers on top, settings in force,
@@ -46,5 +51,13 @@ void servo_rx_isr(struct servo *s, uint8_t byte);
 
 /* Main loop: do whatever is due (send an answer, dispatch the next frame). Never blocks. */
 void servo_poll(struct servo *s);
+
+/* Power-up as the MCU does it with its bootloader (host harnesses): install a staged
+ * update (boot.h), then start the application, or stay in update mode (loader.h) when no
+ * valid image is installed. */
+void servo_power_on(struct servo *s, const struct board *b, struct hal *hal);
+
+/* Main loop step of whichever servo_power_on() started. */
+void servo_step(struct servo *s);
 
 #endif

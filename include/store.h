@@ -56,6 +56,10 @@ void store_sync(struct store *st, const struct regs *r, uint32_t now_us);
  * CPU for tens of milliseconds). */
 void store_poll(struct store *st, const struct regs *r, uint32_t now_us, bool idle);
 
+/* Commit a pending change now, past the rate limit: the servo is about to restart (a
+ * firmware update, once per update), and a waiting change must not be lost. */
+void store_flush(struct store *st, const struct regs *r, uint32_t now_us);
+
 /* Number of record slots in a page, for tests and benchmarks. */
 #define STORE_HEADER_BYTES 12u
 #define STORE_RECORD_BYTES 6u

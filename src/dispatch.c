@@ -4,6 +4,7 @@
 
 #include "dispatch.h"
 #include "hal.h"
+#include "loader.h"
 #include "motion.h"
 #include "proto.h"
 #include "servo.h"
@@ -57,6 +58,7 @@ void dispatch_factory_reset(struct servo *s)
 {
     motion_reset(s);
     regs_init(&s->regs, s->board);
+    s->regs.mem[REG_FIRMWARE_VERSION] = s->fw_version;
     s->held.n = 0;
     traj_clear(&s->traj);
     motion_init(s);
@@ -207,6 +209,13 @@ void dispatch_frame(struct servo *s, const struct frame *f)
         return;
     uint32_t at = f->end_us + (uint32_t)l->delay * 500u;
 
+    if (update_is_frame(f->buf, f->len)) { /* §10, checksum errors included (NAK) */
+        if (!broadcast &&
+            loader_update_frame(s, f->buf, f->len, f->status == FRAME_OK, f->end_us) ==
+                UPDATE_STARTED)
+            motion_torque_off(s); /* no motion during an update */
+        return;
+    }
     if (f->status != FRAME_OK) {
         /* Not executed; answered only where level 2 and register 18 bit 4 allow. */
         if (!broadcast && l->level == 2u && (l->report & UNLOAD_REPORT_CHECKSUM))
@@ -218,7 +227,10 @@ void dispatch_frame(struct servo *s, const struct frame *f)
     uint8_t ins = f->buf[2];
     uint8_t n = (uint8_t)(f->buf[1] - 2u); /* LEN counts INS and CHK */
     struct result res = {0};
-    execute(s, ins, &f->buf[3], n, broadcast, &res);
+    if (s->update.state != UPDATE_IDLE && ins != INS_PING && ins != INS_READ)
+        res.err = ERR_INSTRUCTION; /* an update session: the servo only reports */
+    else
+        execute(s, ins, &f->buf[3], n, broadcast, &res);
 
     if (broadcast && (ins != INS_PING || res.err == ERR_INSTRUCTION))
         return; /* §3.2: nobody answers a broadcast but a good PING */

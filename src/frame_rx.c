@@ -5,11 +5,14 @@
 #include "proto.h"
 
 #define MASK (FRAME_SLOTS - 1u)
+#define READY_MASK (FRAME_READY - 1u)
 #define NO_SLOT 0xFFu
 
 enum { STEP_MORE, STEP_DONE, STEP_INVALID };
 
 _Static_assert((FRAME_SLOTS & MASK) == 0, "FRAME_SLOTS must be a power of two");
+_Static_assert((FRAME_READY & READY_MASK) == 0 && FRAME_READY > FRAME_SLOTS,
+               "the ready queue holds every slot and the block");
 _Static_assert(FRAME_BYTES >= 2u + 255u, "a slot must hold the longest LEN");
 
 /* Each ring index is written by one side only; the other side reads it with acquire so
@@ -56,13 +59,16 @@ static uint8_t slot_take(struct frame_rx *rx)
 
 static void slot_drop(struct frame_rx *rx, uint8_t s)
 {
-    rx->spare[rx->spare_count++] = s;
+    if (s == FRAME_BLOCK)
+        rx->block_busy = 0;
+    else
+        rx->spare[rx->spare_count++] = s;
 }
 
 static void slot_publish(struct frame_rx *rx, uint8_t s)
 {
     uint8_t head = rx->ready_head;
-    rx->ready[head & MASK] = s;
+    rx->ready[head & READY_MASK] = s;
     store_release(&rx->ready_head, (uint8_t)(head + 1u));
 }
 
@@ -73,12 +79,29 @@ static void parser_start(struct frame_parser *p, uint8_t slot)
     p->need = FRAME_BYTES;
 }
 
+/* ISR: LEN 0xFF, INS 0xFF, sub 0xFE, type 0x02: a §10 data block, longer than any slot.
+ * Move what arrived into the block buffer; false if it is in use (the block is lost and
+ * the host, seeing no answer, sends it again). */
+static bool parser_to_block(struct frame_rx *rx, struct frame_parser *p)
+{
+    if (load_acquire(&rx->block_busy)) {
+        rx->overruns++;
+        return false;
+    }
+    rx->block_busy = 1;
+    memcpy(rx->block.buf, rx->slot[p->slot].buf, p->pos);
+    slot_drop(rx, p->slot);
+    p->slot = FRAME_BLOCK;
+    p->need = FRAME_BLOCK_BYTES;
+    return true;
+}
+
 /* ISR: feed one byte to a candidate frame. */
 static uint8_t parser_step(struct frame_rx *rx, struct frame_parser *p, uint8_t b,
                            uint32_t now_us)
 {
-    struct frame *f = &rx->slot[p->slot];
-    f->buf[p->pos++] = b;
+    uint8_t *buf = p->slot == FRAME_BLOCK ? rx->block.buf : rx->slot[p->slot].buf;
+    buf[p->pos++] = b;
     if (p->pos == 1u) { /* ID */
         p->sum = b;
         return b == PROTO_ID_INVALID ? STEP_INVALID : STEP_MORE;
@@ -90,12 +113,30 @@ static uint8_t parser_step(struct frame_rx *rx, struct frame_parser *p, uint8_t 
     }
     if (p->pos < p->need) {
         p->sum = (uint8_t)(p->sum + b);
+        if (p->pos == 5u && p->need == FRAME_BYTES && buf[2] == 0xFFu && buf[3] == 0xFEu &&
+            b == 0x02u && !parser_to_block(rx, p))
+            return STEP_INVALID;
         return STEP_MORE;
     }
-    f->len = p->need;
-    f->end_us = now_us;
-    f->status = b == p->sum ? FRAME_OK : FRAME_BAD_CHECKSUM;
+    uint8_t status = b == p->sum ? FRAME_OK : FRAME_BAD_CHECKSUM;
+    if (p->slot == FRAME_BLOCK) {
+        rx->block.len = p->need;
+        rx->block.end_us = now_us;
+        rx->block.status = status;
+    } else {
+        struct frame *f = &rx->slot[p->slot];
+        f->len = p->need;
+        f->end_us = now_us;
+        f->status = status;
+    }
     return STEP_DONE;
+}
+
+/* ISR: status of the frame a parser just completed. */
+static bool parser_good(const struct frame_rx *rx, const struct frame_parser *p)
+{
+    uint8_t status = p->slot == FRAME_BLOCK ? rx->block.status : rx->slot[p->slot].status;
+    return status == FRAME_OK;
 }
 
 /* ISR: drop every shadow (they were the payload of a good frame). */
@@ -159,7 +200,7 @@ void frame_rx_byte(struct frame_rx *rx, uint8_t b, uint32_t now_us)
 
     if (rx->shadow_running) {
         uint8_t r = parser_step(rx, &rx->shadow, b, now_us);
-        if (r == STEP_DONE && rx->slot[rx->shadow.slot].status == FRAME_OK) {
+        if (r == STEP_DONE && parser_good(rx, &rx->shadow)) {
             rx->waiting[rx->waiting_count++] = rx->shadow.slot;
             rx->shadow_running = 0;
         } else if (r != STEP_MORE) {
@@ -177,7 +218,7 @@ void frame_rx_byte(struct frame_rx *rx, uint8_t b, uint32_t now_us)
     uint8_t r = parser_step(rx, &rx->main, b, now_us);
     if (r == STEP_MORE)
         return;
-    bool good = r == STEP_DONE && rx->slot[rx->main.slot].status == FRAME_OK;
+    bool good = r == STEP_DONE && parser_good(rx, &rx->main);
     if (r == STEP_DONE)
         slot_publish(rx, rx->main.slot); /* bad checksums too: they may get an answer */
     else
@@ -205,19 +246,35 @@ void frame_rx_set_baud(struct frame_rx *rx, uint32_t baud)
     rx->byte_us = (10u * 1000000u + baud - 1u) / baud;
 }
 
-const struct frame *frame_rx_peek(struct frame_rx *rx)
+/* Main loop: queue entry of the oldest published frame, or NO_SLOT. */
+static uint8_t oldest(struct frame_rx *rx)
 {
     uint8_t tail = rx->ready_tail;
     if (tail == load_acquire(&rx->ready_head))
-        return 0;
-    return &rx->slot[rx->ready[tail & MASK]];
+        return NO_SLOT;
+    return rx->ready[tail & READY_MASK];
+}
+
+const struct frame *frame_rx_peek(struct frame_rx *rx)
+{
+    uint8_t s = oldest(rx);
+    return s < FRAME_SLOTS ? &rx->slot[s] : 0;
+}
+
+const struct frame_block *frame_rx_peek_block(struct frame_rx *rx)
+{
+    return oldest(rx) == FRAME_BLOCK ? &rx->block : 0;
 }
 
 void frame_rx_release(struct frame_rx *rx)
 {
     uint8_t tail = rx->ready_tail;
-    uint8_t s = rx->ready[tail & MASK];
+    uint8_t s = rx->ready[tail & READY_MASK];
     store_release(&rx->ready_tail, (uint8_t)(tail + 1u));
+    if (s == FRAME_BLOCK) {
+        store_release(&rx->block_busy, 0);
+        return;
+    }
     uint8_t head = rx->free_head;
     rx->free_ring[head & MASK] = s;
     store_release(&rx->free_head, (uint8_t)(head + 1u));

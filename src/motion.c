@@ -458,6 +458,11 @@ uint8_t motion_custom_move(struct servo *s, const struct custom_move *cm)
     return 0;
 }
 
+void motion_torque_off(struct servo *s)
+{
+    coast(s);
+}
+
 void motion_reset(struct servo *s)
 {
     coast(s);

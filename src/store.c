@@ -313,3 +313,13 @@ void store_poll(struct store *st, const struct regs *r, uint32_t now_us, bool id
         }
     }
 }
+
+void store_flush(struct store *st, const struct regs *r, uint32_t now_us)
+{
+    if (!st->pending)
+        return;
+    (void)token_ready(st, now_us);
+    if (st->tokens == 0u)
+        st->tokens = 1;
+    store_sync(st, r, now_us);
+}

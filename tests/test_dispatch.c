@@ -30,6 +30,7 @@ static struct {
     uint8_t start_end_what;
     uint32_t traj_action_calls;
     uint32_t reset_calls;
+    uint32_t torque_off_calls;
 } fake;
 
 void motion_poll(struct servo *s, uint32_t now_us)
@@ -91,6 +92,12 @@ void motion_reset(struct servo *s)
 {
     (void)s;
     fake.reset_calls++;
+}
+
+void motion_torque_off(struct servo *s)
+{
+    (void)s;
+    fake.torque_off_calls++;
 }
 
 

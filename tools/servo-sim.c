@@ -59,7 +59,9 @@
 #define SIM_CATCH_UP_US 200000u   /* a servo this far behind real time jumps */
 #define SIM_CONFIG_US 1000000u    /* virtual time reserved for configuring new servos */
 #define SIM_OUT_MAX (1u << 20)    /* bytes queued for a client that does not read */
-#define SIM_FLASH_BYTES (HAL_FLASH_PAGES * HAL_FLASH_PAGE_BYTES)
+#define SIM_FLASH_BYTES (HAL_PAGES_ALL * HAL_FLASH_PAGE_BYTES)
+#define SIM_OLD_FLASH_BYTES (HAL_FLASH_PAGES * HAL_FLASH_PAGE_BYTES) /* store only */
+#define SIM_FACTORY_BYTES (16u * 1024u) /* the factory image's size */
 
 static const char usage[] =
     "usage: servo-sim --listen HOST:PORT [--servo ID:VARIANT]... [--state-dir DIR]";
@@ -74,7 +76,7 @@ struct sim_servo {
     int state_fd;      /* -1 without --state-dir */
     uint32_t synced_ops; /* hal.flash.ops when the file last matched the flash */
     char *state_path;
-    uint8_t saved[HAL_FLASH_PAGES][HAL_FLASH_PAGE_BYTES]; /* what the file holds */
+    uint8_t saved[HAL_PAGES_ALL][HAL_FLASH_PAGE_BYTES]; /* what the file holds */
 };
 
 static struct sim_servo *servos[SIM_SERVOS_MAX];
@@ -123,7 +125,7 @@ static void state_sync(struct sim_servo *v)
 {
     if (v->state_fd < 0 || v->hal.flash.ops == v->synced_ops)
         return;
-    for (unsigned p = 0; p < HAL_FLASH_PAGES; p++) {
+    for (unsigned p = 0; p < HAL_PAGES_ALL; p++) {
         if (memcmp(v->hal.flash.mem[p], v->saved[p], HAL_FLASH_PAGE_BYTES) == 0)
             continue;
         ssize_t n = pwrite(v->state_fd, v->hal.flash.mem[p], HAL_FLASH_PAGE_BYTES,
@@ -188,21 +190,37 @@ static void state_open(struct sim_servo *v, const char *dir)
         memcpy(v->saved, v->hal.flash.mem, sizeof v->saved);
         return;
     }
-    if (st.st_size != (off_t)SIM_FLASH_BYTES)
+    /* A file from before the image slots holds the store pages only: keep them, the
+     * slots start erased (and get the factory image). */
+    size_t bytes = (size_t)st.st_size;
+    if (bytes != SIM_FLASH_BYTES && bytes != SIM_OLD_FLASH_BYTES)
         die(2, "state file %s has %lld bytes, not %u: not a servo-sim flash image",
             v->state_path, (long long)st.st_size, SIM_FLASH_BYTES);
-    if (pread(v->state_fd, v->hal.flash.mem, SIM_FLASH_BYTES, 0) != (ssize_t)SIM_FLASH_BYTES)
+    if (pread(v->state_fd, v->hal.flash.mem, bytes, 0) != (ssize_t)bytes)
         die(2, "cannot read state file %s: %s", v->state_path, strerror(errno));
-    memcpy(v->saved, v->hal.flash.mem, sizeof v->saved);
+    memcpy(v->saved, v->hal.flash.mem, bytes);
+    if (bytes == SIM_OLD_FLASH_BYTES)
+        memset(v->saved[HAL_FLASH_PAGES], 0, SIM_FLASH_BYTES - bytes); /* written on sync */
 }
 
-static bool flash_blank(const struct sim_servo *v)
+static bool pages_blank(const struct sim_servo *v, unsigned first, unsigned count)
 {
-    const uint8_t *m = &v->hal.flash.mem[0][0];
-    for (unsigned i = 0; i < SIM_FLASH_BYTES; i++)
+    const uint8_t *m = &v->hal.flash.mem[first][0];
+    for (unsigned i = 0; i < count * HAL_FLASH_PAGE_BYTES; i++)
         if (m[i] != 0xFFu)
             return false;
     return true;
+}
+
+/* A servo whose application slot was never written gets what the factory programs: an
+ * image of this board at this build's version (register 2), which boot_install() checks
+ * like any. An update replaces it; a damaged one is left as it is (update mode). */
+static void factory_program(struct sim_servo *v)
+{
+    static uint8_t img[SIM_FACTORY_BYTES];
+    hal_host_image_build(img, sizeof img, v->board->model_number, SERVO_FW_VERSION, v->id);
+    hal_host_program_app(&v->hal, img, sizeof img);
+    v->synced_ops = v->hal.flash.ops - 1u; /* not a counted operation: sync anyway */
 }
 
 /* ---- Servos ---------------------------------------------------------------------- */
@@ -211,19 +229,29 @@ static bool flash_blank(const struct sim_servo *v)
  * An answer that fell due since the last step is started at its due time first, as the
  * MCU's own clock would start it: a late start would slide one servo's broadcast-PING
  * slot into the next one's. */
+static void servo_run_once(struct sim_servo *v)
+{
+    servo_step(&v->servo);
+    if (v->hal.restart_requested) { /* hal_restart(): the MCU resets, the bootloader runs */
+        hal_host_reboot(&v->hal);
+        servo_power_on(&v->servo, v->board, &v->hal);
+    }
+}
+
 static void servo_run_at(struct sim_servo *v, uint32_t now)
 {
     uint32_t due = v->servo.link.due_us;
     if (v->servo.link.state == LINK_WAITING && (int32_t)(due - v->hal.now_us) > 0 &&
         (int32_t)(now - due) > 0) {
         v->hal.now_us = due;
-        servo_poll(&v->servo);
+        servo_run_once(v);
     }
     v->hal.now_us = now;
     for (int i = 0; i < 8; i++) {
-        servo_poll(&v->servo);
+        servo_run_once(v);
         const struct link *l = &v->servo.link;
-        bool next_frame = l->state == LINK_IDLE && frame_rx_peek(&v->servo.rx);
+        bool next_frame = l->state == LINK_IDLE && (frame_rx_peek(&v->servo.rx) ||
+                                                    frame_rx_peek_block(&v->servo.rx));
         bool answer_due = l->state == LINK_WAITING && (int32_t)(now - l->due_us) >= 0;
         if (!next_frame && !answer_due)
             break; /* else go on at once: no answer waits for the next tick */
@@ -234,7 +262,7 @@ static void servo_run_at(struct sim_servo *v, uint32_t now)
  * catches up in steps of SIM_TICK_US of its own clock, so its control loop still sees
  * the motor at its own pace (a jump would look like a stall or a current spike to the
  * firmware). Beyond SIM_CATCH_UP_US behind (the process was stopped) it jumps. */
-static void servo_step(struct sim_servo *v, uint32_t now)
+static void sim_step(struct sim_servo *v, uint32_t now)
 {
     if ((int32_t)(now - v->hal.now_us) > (int32_t)SIM_CATCH_UP_US)
         v->hal.now_us = now - SIM_CATCH_UP_US;
@@ -257,7 +285,7 @@ static void servo_configure_id(struct sim_servo *v)
     for (uint16_t i = 0; i < n; i++)
         servo_rx_isr(&v->servo, pkt[i]);
     for (uint32_t t = 0; t < SIM_CONFIG_US / 2u; t += 100u) {
-        servo_step(v, t);
+        sim_step(v, t);
         if (v->servo.link.state == LINK_IDLE && v->servo.link.id == v->id)
             break;
     }
@@ -279,8 +307,10 @@ static void servo_add(uint8_t id, const struct board *b, const char *state_dir)
     hal_host_attach_board(&v->hal, b); /* the motor and switches of this board */
     if (state_dir)
         state_open(v, state_dir); /* before servo_init: the store reads the flash there */
-    bool blank = flash_blank(v);
-    servo_init(&v->servo, b, &v->hal);
+    bool blank = pages_blank(v, 0, HAL_PAGES_ALL);
+    if (pages_blank(v, HAL_PAGE_APP, 1))
+        factory_program(v);
+    servo_power_on(&v->servo, b, &v->hal); /* the bootloader's decision, then the firmware */
     if (blank && v->servo.link.id != id)
         servo_configure_id(v);
     state_sync(v);
@@ -475,7 +505,7 @@ static void client_input(int *client, uint32_t now, bool drain)
             return;
         for (unsigned i = 0; i < servo_count; i++) {
             struct sim_servo *v = servos[i];
-            servo_step(v, now); /* bring the servo up to the arrival time */
+            sim_step(v, now); /* bring the servo up to the arrival time */
             for (ssize_t k = 0; k < n; k++)
                 servo_rx_isr(&v->servo, in[k]);
         }
@@ -586,7 +616,7 @@ int main(int argc, char **argv)
             }
         }
         for (unsigned i = 0; i < servo_count; i++)
-            servo_step(servos[i], now);
+            sim_step(servos[i], now);
         collect_tx(now, client >= 0);
         if (client >= 0 && !flush_out(client))
             client_close(&client);

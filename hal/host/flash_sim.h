@@ -1,4 +1,4 @@
-/* flash_sim.h - simulated STM32F1 flash for the persistent store on the host: counts
+/* flash_sim.h - simulated STM32F1 flash (store and image slots, hal.h) on the host: counts
  * erases per page, and can cut the power at the Nth program or erase, leaving the
  * half-word torn or the page half-erased (bits in an undefined state) like a brown-out
  * does. After a cut every operation fails until flash_sim_power_on(). */
@@ -17,8 +17,8 @@ enum flash_cut {
 };
 
 struct flash_sim {
-    uint8_t mem[HAL_FLASH_PAGES][HAL_FLASH_PAGE_BYTES];
-    uint32_t erases[HAL_FLASH_PAGES]; /* erase cycles per page */
+    uint8_t mem[HAL_PAGES_ALL][HAL_FLASH_PAGE_BYTES]; /* store, application, staging */
+    uint32_t erases[HAL_PAGES_ALL];  /* erase cycles per page */
     uint32_t ops;                     /* programs + erases since power-on */
     uint32_t cut_at;                  /* cut the power at this op (1-based); 0 = never */
     uint8_t cut_kind;                 /* enum flash_cut */

@@ -2,6 +2,7 @@
 #include <string.h>
 
 #include "hal_host.h"
+#include "image.h"
 
 void hal_host_init(struct hal *h)
 {
@@ -23,7 +24,19 @@ void hal_host_reboot(struct hal *h)
     h->motor.enabled = false; /* a reset leaves the bridge off until the core says */
     h->motor.duty = 0;
     h->termination = false;
+    h->restart_requested = false;
     h->watchdog_started = false;
+}
+
+void hal_host_program_app(struct hal *h, const uint8_t *img, uint32_t len)
+{
+    for (uint32_t p = 0; p < HAL_SLOT_PAGES; p++) {
+        uint8_t *page = h->flash.mem[HAL_PAGE_APP + p];
+        memset(page, 0xFF, HAL_FLASH_PAGE_BYTES);
+        uint32_t at = p * HAL_FLASH_PAGE_BYTES;
+        if (at < len)
+            memcpy(page, &img[at], len - at < HAL_FLASH_PAGE_BYTES ? len - at : HAL_FLASH_PAGE_BYTES);
+    }
 }
 
 uint32_t hal_host_byte_start(uint32_t t0, uint32_t baud, uint32_t i)
@@ -97,6 +110,11 @@ bool hal_flash_erase(struct hal *h, uint8_t p)
 bool hal_flash_program(struct hal *h, uint8_t p, uint16_t off, uint16_t value)
 {
     return flash_sim_program(&h->flash, p, off, value);
+}
+
+void hal_restart(struct hal *h)
+{
+    h->restart_requested = true;
 }
 
 void hal_motor_enable(struct hal *h, bool on)

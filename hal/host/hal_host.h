@@ -39,6 +39,7 @@ struct hal {
     bool photo_sim;         /* switches follow the motor: */
     double sw1_deg, sw2_deg; /* switch 1 reads high beyond sw1 (away from sw2), 2 beyond sw2 */
     bool termination;
+    bool restart_requested; /* hal_restart() was called; the harness reboots */
     bool watchdog_started;
     uint32_t watchdog_feeds;
     struct hal_tx_byte log[HAL_HOST_TX_LOG];
@@ -61,5 +62,14 @@ void hal_host_attach_board(struct hal *h, const struct board *b);
 
 /* Power cycle: the UART and clock state go, the flash stays (a cut is cleared). */
 void hal_host_reboot(struct hal *h);
+
+/* A synthetic application image (image.h layout) of len bytes for a board of this
+ * model, with the given version; seed varies its content. len >= IMAGE_MIN_BYTES. */
+void hal_host_image_build(uint8_t *img, uint32_t len, uint16_t model, uint8_t version,
+                          uint32_t seed);
+
+/* What a programmer does at the factory: erase the application slot and write img into
+ * it directly (no power cut, no wear counted). */
+void hal_host_program_app(struct hal *h, const uint8_t *img, uint32_t len);
 
 #endif

@@ -123,9 +123,11 @@ static void poll_once(void)
     uint8_t my_id = servo.link.id;
     servo_poll(&servo);
     if (servo.rx.ready_tail != tail) { /* dispatched */
-        const struct frame *f = &servo.rx.slot[servo.rx.ready[tail & (FRAME_SLOTS - 1u)]];
-        const uint8_t *buf = f->buf;
-        bool ok = f->status == FRAME_OK;
+        uint8_t e = servo.rx.ready[tail & (FRAME_READY - 1u)];
+        const struct frame *f = e == FRAME_BLOCK ? 0 : &servo.rx.slot[e];
+        const uint8_t *buf = f ? f->buf : servo.rx.block.buf;
+        uint16_t len = f ? f->len : servo.rx.block.len;
+        bool ok = (f ? f->status : servo.rx.block.status) == FRAME_OK;
         if (buf[0] == PROTO_ID_BROADCAST && !(ok && buf[2] == INS_PING))
             CHECK(servo.link.state == LINK_IDLE); /* invariant 2 */
         if (ok) {
@@ -133,7 +135,7 @@ static void poll_once(void)
             if (buf[2] != INS_PING && buf[2] != INS_READ)
                 motion_commanded = true;
             if ((buf[0] == my_id || buf[0] == PROTO_ID_BROADCAST) &&
-                writes_speed0(buf, f->len) &&
+                writes_speed0(buf, len) &&
                 (regs_get(&servo.regs, REG_MOVING_SPEED) & 0x7FFFu) == 0u)
                 speed0_window = true;
         }

@@ -1,0 +1,26 @@
+/* loader.h - update mode: what runs when the application slot holds no valid image.
+ * It listens at the stored ID and baud (read through the persistent store, never
+ * written) and answers only the §10 update frames; the motor is never driven. The
+ * STM32 bootloader runs it; on the host, servo_power_on() does when boot_install()
+ * finds no valid application. Interrupt side: servo_rx_isr() as for the application. */
+#ifndef LOADER_H
+#define LOADER_H
+
+#include "servo.h"
+
+/* Power-up in update mode: factory table with the stored EEPROM registers on top (for
+ * the ID, baud and return delay), receiver empty. */
+void loader_init(struct servo *s, const struct board *b, struct hal *hal);
+
+/* Answer a §10 frame (buf = ID ... CHK, len bytes) if it is addressed to this servo:
+ * run the session (update.h), schedule the answer (always, ERR 0, after the return
+ * delay), and on a verified image set s->restart. Returns the enum update_outcome.
+ * Shared by update mode and the application's dispatcher. */
+uint8_t loader_update_frame(struct servo *s, const uint8_t *buf, uint16_t len, bool chk_ok,
+                            uint32_t end_us);
+
+/* Main loop step of update mode. Restarts (hal_restart) after answering the end of a
+ * verified session. Never blocks. */
+void loader_poll(struct servo *s);
+
+#endif

@@ -1,0 +1,51 @@
+/* image.c - the validity check of an image in a flash slot (image.h). */
+#include "crc.h"
+#include "image.h"
+
+static uint32_t get32(const uint8_t *p)
+{
+    return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) |
+           ((uint32_t)p[3] << 24);
+}
+
+bool image_parse_info(const uint8_t *page0, struct image_info *out)
+{
+    const uint8_t *info = &page0[IMAGE_INFO_OFFSET];
+    out->length = get32(&info[IMAGE_OFF_LENGTH]);
+    out->crc = get32(&info[IMAGE_OFF_CRC]);
+    out->model = (uint16_t)(info[IMAGE_OFF_MODEL] | ((uint32_t)info[IMAGE_OFF_MODEL + 1u] << 8));
+    out->version = info[IMAGE_OFF_VERSION];
+    return get32(&info[IMAGE_OFF_MAGIC]) == IMAGE_MAGIC && out->length >= IMAGE_MIN_BYTES &&
+           out->length <= IMAGE_MAX_BYTES;
+}
+
+uint32_t image_crc(struct hal *hal, uint8_t first_page, uint32_t length)
+{
+    static const uint8_t zero[4];
+    const uint32_t crc_at = IMAGE_INFO_OFFSET + IMAGE_OFF_CRC;
+    uint32_t crc = CRC32_INIT;
+    for (uint32_t done = 0; done < length;) {
+        const uint8_t *page = hal_flash_page(hal, (uint8_t)(first_page + done / HAL_FLASH_PAGE_BYTES));
+        uint32_t n = length - done < HAL_FLASH_PAGE_BYTES ? length - done : HAL_FLASH_PAGE_BYTES;
+        if (done == 0u) { /* the first page holds the crc field: read it as zeros */
+            crc = crc32_update(crc, page, crc_at);
+            crc = crc32_update(crc, zero, 4u);
+            crc = crc32_update(crc, &page[crc_at + 4u], n - crc_at - 4u);
+        } else {
+            crc = crc32_update(crc, page, n);
+        }
+        done += n;
+    }
+    return ~crc;
+}
+
+bool image_valid(struct hal *hal, uint8_t first_page, uint16_t model, struct image_info *out)
+{
+    struct image_info info;
+    if (!image_parse_info(hal_flash_page(hal, first_page), &info) || info.model != model ||
+        image_crc(hal, first_page, info.length) != info.crc)
+        return false;
+    if (out)
+        *out = info;
+    return true;
+}
