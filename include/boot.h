@@ -11,8 +11,8 @@
 /* Install a verified update if one is waiting, then say whether the application slot
  * holds a valid image for this model (start it) or not (stay in the loader).
  *
- * A staged image is installed when the staging slot holds a valid image that differs
- * from the application slot: page by page, erase then program then compare. A power cut
+ * A staged image is installed when the install mark is set (image.h), the staging slot
+ * holds a valid image and it differs from the application slot: page by page, erase then program then compare. A power cut
  * anywhere in the copy leaves the staging copy valid and the slots different, so the
  * next boot simply copies again. Once the slots match, the staging copy is consumed
  * (its first page erased). Nothing is written when there is nothing to install. */

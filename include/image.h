@@ -29,7 +29,19 @@
 #define IMAGE_OFF_MODEL 12u
 #define IMAGE_OFF_VERSION 14u
 #define IMAGE_MIN_BYTES (IMAGE_INFO_OFFSET + IMAGE_INFO_BYTES)
-#define IMAGE_MAX_BYTES (HAL_SLOT_PAGES * HAL_FLASH_PAGE_BYTES)
+#define IMAGE_MAX_BYTES (HAL_SLOT_PAGES * HAL_FLASH_PAGE_BYTES - 4u)
+
+/* The install mark: the half-word IMAGE_MARK_OFFSET of the staging slot's last page,
+ * past any image. The update session erases it when a header is accepted and programs it
+ * to 0 once the whole image has been verified (the end-of-batch ACK); the bootloader
+ * installs a staged image only while it is 0. So only an image the servo acknowledged
+ * is ever installed, even if a cut or an abandoned session left a complete copy. */
+#define IMAGE_MARK_PAGE (HAL_PAGE_STAGING + HAL_SLOT_PAGES - 1u)
+#define IMAGE_MARK_OFFSET (HAL_FLASH_PAGE_BYTES - 4u)
+#define IMAGE_MARK_SET 0x0000u
+
+/* Is the install mark set? */
+bool image_marked(struct hal *hal);
 
 struct image_info {
     uint32_t length;

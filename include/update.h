@@ -3,8 +3,8 @@
  *
  * The image is written to the staging slot only, block n to staging page n-1 (erase,
  * program, read back). The running image is untouched until the whole new image has
- * arrived and passes image_valid(); then the servo restarts and the bootloader
- * installs it (boot.h). See docs/update.md for the state machine and the decisions.
+ * arrived and passes image_valid(); then the install mark is set (image.h), the
+ * servo restarts and the bootloader installs it (boot.h). See docs/update.md for the state machine and the decisions.
  * Main loop only. */
 #ifndef UPDATE_H
 #define UPDATE_H

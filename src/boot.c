@@ -35,7 +35,7 @@ static bool slots_equal(struct hal *hal, uint32_t length)
 bool boot_install(struct hal *hal, uint16_t model)
 {
     struct image_info staged;
-    if (image_valid(hal, HAL_PAGE_STAGING, model, &staged)) {
+    if (image_marked(hal) && image_valid(hal, HAL_PAGE_STAGING, model, &staged)) {
         if (!slots_equal(hal, staged.length)) {
             uint8_t pages = (uint8_t)((staged.length + HAL_FLASH_PAGE_BYTES - 1u) /
                                       HAL_FLASH_PAGE_BYTES);

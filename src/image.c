@@ -49,3 +49,9 @@ bool image_valid(struct hal *hal, uint8_t first_page, uint16_t model, struct ima
         *out = info;
     return true;
 }
+
+bool image_marked(struct hal *hal)
+{
+    const uint8_t *m = &hal_flash_page(hal, IMAGE_MARK_PAGE)[IMAGE_MARK_OFFSET];
+    return m[0] == 0u && m[1] == 0u;
+}

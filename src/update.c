@@ -72,6 +72,11 @@ static uint8_t on_header(struct update *u, struct hal *hal, uint16_t model, cons
             ans[0] = UPDATE_CAN; /* bad CRC, truncated, or not what the header said */
             return UPDATE_ABANDONED;
         }
+        if (!hal_flash_program(hal, IMAGE_MARK_PAGE, IMAGE_MARK_OFFSET, IMAGE_MARK_SET) ||
+            !image_marked(hal)) {
+            ans[0] = UPDATE_CAN; /* flash error */
+            return UPDATE_ABANDONED;
+        }
         ans[0] = UPDATE_ACK;
         return UPDATE_RESTART;
     }
@@ -81,6 +86,14 @@ static uint8_t on_header(struct update *u, struct hal *hal, uint16_t model, cons
         if (length < IMAGE_MIN_BYTES || length > IMAGE_MAX_BYTES) {
             u->state = UPDATE_IDLE;
             ans[0] = UPDATE_CAN; /* cannot be an image for this slot */
+            return UPDATE_ABANDONED;
+        }
+        /* Clear the install mark of an earlier session before anything is staged. */
+        const uint8_t *mark = &hal_flash_page(hal, IMAGE_MARK_PAGE)[IMAGE_MARK_OFFSET];
+        if ((mark[0] != 0xFFu || mark[1] != 0xFFu) &&
+            (!hal_flash_erase(hal, IMAGE_MARK_PAGE) || mark[0] != 0xFFu || mark[1] != 0xFFu)) {
+            u->state = UPDATE_IDLE;
+            ans[0] = UPDATE_CAN; /* flash error */
             return UPDATE_ABANDONED;
         }
         u->length = length;

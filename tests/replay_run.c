@@ -208,10 +208,7 @@ static void run_line(struct vbus *b, char **tok, int ntok)
     } else if (strcmp(cmd, "reg") == 0) {
         do_reg(b, tok, ntok);
     } else if (strcmp(cmd, "power-cycle") == 0 && ntok == 1) {
-        struct vbus_node *n = node_by_name(b, tok[0]);
-        hal_host_reboot(&n->hal); /* the flash stays */
-        n->hal.now_us = b->now_us;
-        servo_init(&n->servo, n->servo.board, &n->hal);
+        vbus_power_cycle(b, (uint8_t)(node_by_name(b, tok[0]) - b->node));
     } else if (strcmp(cmd, "sensor") == 0 && ntok == 3) {
         struct hal *h = &node_by_name(b, tok[0])->hal;
         long v = number(tok[2], 10);

@@ -61,7 +61,6 @@
 #define SIM_OUT_MAX (1u << 20)    /* bytes queued for a client that does not read */
 #define SIM_FLASH_BYTES (HAL_PAGES_ALL * HAL_FLASH_PAGE_BYTES)
 #define SIM_OLD_FLASH_BYTES (HAL_FLASH_PAGES * HAL_FLASH_PAGE_BYTES) /* store only */
-#define SIM_FACTORY_BYTES (16u * 1024u) /* the factory image's size */
 
 static const char usage[] =
     "usage: servo-sim --listen HOST:PORT [--servo ID:VARIANT]... [--state-dir DIR]";
@@ -212,14 +211,13 @@ static bool pages_blank(const struct sim_servo *v, unsigned first, unsigned coun
     return true;
 }
 
-/* A servo whose application slot was never written gets what the factory programs: an
- * image of this board at this build's version (register 2), which boot_install() checks
- * like any. An update replaces it; a damaged one is left as it is (update mode). */
+/* A servo whose application slot was never written gets what the factory programs
+ * (hal_host_program_factory): an image of this board at this build's version, which
+ * boot_install() checks like any. An update replaces it; a damaged one is left as it is
+ * (the servo then stays in update mode). */
 static void factory_program(struct sim_servo *v)
 {
-    static uint8_t img[SIM_FACTORY_BYTES];
-    hal_host_image_build(img, sizeof img, v->board->model_number, SERVO_FW_VERSION, v->id);
-    hal_host_program_app(&v->hal, img, sizeof img);
+    hal_host_program_factory(&v->hal, v->board);
     v->synced_ops = v->hal.flash.ops - 1u; /* not a counted operation: sync anyway */
 }
 

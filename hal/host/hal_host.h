@@ -72,4 +72,10 @@ void hal_host_image_build(uint8_t *img, uint32_t len, uint16_t model, uint8_t ve
  * it directly (no power cut, no wear counted). */
 void hal_host_program_app(struct hal *h, const uint8_t *img, uint32_t len);
 
+/* The factory image of board b: HAL_HOST_FACTORY_BYTES built by hal_host_image_build()
+ * at this build's version (SERVO_FW_VERSION, register 2), programmed into the
+ * application slot. (image_host.c, library image_host.) */
+#define HAL_HOST_FACTORY_BYTES (16u * 1024u)
+void hal_host_program_factory(struct hal *h, const struct board *b);
+
 #endif

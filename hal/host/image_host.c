@@ -29,3 +29,10 @@ void hal_host_image_build(uint8_t *img, uint32_t len, uint16_t model, uint8_t ve
     info[IMAGE_OFF_VERSION + 1u] = 0;
     put32(&info[IMAGE_OFF_CRC], ~crc32_update(CRC32_INIT, img, len));
 }
+
+void hal_host_program_factory(struct hal *h, const struct board *b)
+{
+    static uint8_t img[HAL_HOST_FACTORY_BYTES];
+    hal_host_image_build(img, sizeof img, b->model_number, SERVO_FW_VERSION, 1);
+    hal_host_program_app(h, img, sizeof img);
+}

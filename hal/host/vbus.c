@@ -18,12 +18,21 @@ uint8_t vbus_add(struct vbus *b, const struct board *bd, uint8_t id)
     hal_host_init(&n->hal);
     hal_host_attach_board(&n->hal, bd);
     n->hal.now_us = b->now_us;
-    servo_init(&n->servo, bd, &n->hal);
+    hal_host_program_factory(&n->hal, bd);
+    servo_power_on(&n->servo, bd, &n->hal);
     if (id) {
         n->servo.regs.mem[REG_ID] = id;
         link_latch(&n->servo);
     }
     return i;
+}
+
+void vbus_power_cycle(struct vbus *b, uint8_t i)
+{
+    struct vbus_node *n = &b->node[i];
+    hal_host_reboot(&n->hal); /* the flash stays */
+    n->hal.now_us = b->now_us;
+    servo_power_on(&n->servo, n->servo.board, &n->hal);
 }
 
 const struct vbus_byte *vbus_wire(const struct vbus *b, uint32_t i)
@@ -87,8 +96,11 @@ void vbus_run_until(struct vbus *b, uint32_t t_us)
         deliver(b, t);
         b->now_us = t;
         for (uint8_t i = 0; i < b->nodes; i++) {
-            b->node[i].hal.now_us = t;
-            servo_poll(&b->node[i].servo);
+            struct vbus_node *n = &b->node[i];
+            n->hal.now_us = t;
+            servo_step(&n->servo);
+            if (n->hal.restart_requested) /* hal_restart(): reset, the bootloader runs */
+                vbus_power_cycle(b, i);
         }
         collect(b);
     }

@@ -47,9 +47,14 @@ struct vbus {
 /* Empty bus at time 0, host at 9600 baud, 1 us main-loop period. */
 void vbus_init(struct vbus *b);
 
-/* Power up a servo of board bd on the bus. A non-zero id is stored in its table as if
- * configured earlier (a fresh servo is ID 1). Returns its node index. */
+/* Power up a servo of board bd on the bus, its factory image in the application slot.
+ * A non-zero id is stored in its table as if configured earlier (a fresh servo is ID 1).
+ * Returns its node index. */
 uint8_t vbus_add(struct vbus *b, const struct board *bd, uint8_t id);
+
+/* Power cycle node i (also what its hal_restart() leads to): the flash stays, the
+ * bootloader's decision runs (servo_power_on). */
+void vbus_power_cycle(struct vbus *b, uint8_t i);
 
 /* The host puts n bytes on the wire back to back, starting now, at host_baud; the bus
  * runs until the last one has ended. */
