@@ -39,25 +39,32 @@ FUZZ_SECONDS ?= 600
 fuzz: deps
 	@FUZZ_SECONDS=$(FUZZ_SECONDS) tools/fuzz/fuzz.sh
 
-# build/stm32-<board>/servo-<board>.{elf,bin,hex,map}; the build fails past the budget.
+# build/stm32-<board>/: servo-<board>.{elf,bin,hex,map} (the application; its .bin is the
+# update file), servo-boot-<board>.* (the bootloader), servo-<board>-full.{bin,hex} (both,
+# for a first flashing). The build fails past a budget.
+size_table = awk '{ printf "%-12s %7d  %6.1f%%    %6d  %6.1f%%    (%d + %d + %d + %d)\n", \
+	$$1, $$2, 100 * $$2 / $(1), $$3, 100 * $$3 / 6144, $$4, $$5, $$6, $$7 }'
 firmware: deps
 	@for b in $(BOARDS); do $(call fw_build,$$b) || exit 1; done
 	@echo
-	@echo "board    flash B  of 32 KiB    RAM B  of 6 KiB   (vectors + code/data + bss + stack)"
-	@for b in $(BOARDS); do cat build/stm32-$$b/servo-$$b.size; done | \
-	    awk '{ printf "%-7s %7d  %6.1f%%    %6d  %6.1f%%    (%d + %d + %d + %d)\n", \
-	           $$1, $$2, 100 * $$2 / 32768, $$3, 100 * $$3 / 6144, $$4, $$5, $$6, $$7 }'
+	@echo "application  flash B  of 27 KiB-4  RAM B  of 6 KiB   (vectors + code/data + bss + stack)"
+	@for b in $(BOARDS); do cat build/stm32-$$b/servo-$$b.size; done | $(call size_table,27644)
+	@echo "bootloader   flash B  of 6 KiB"
+	@for b in $(BOARDS); do cat build/stm32-$$b/servo-boot-$$b.size; done | $(call size_table,6144)
 	@echo
 	@echo "worst-case stack per entry point (-fstack-usage + call graph; budget 75% of reserved)"
-	@for b in $(BOARDS); do echo "$$b"; cat build/stm32-$$b/servo-$$b.stack; done
+	@for b in $(BOARDS); do echo "$$b application"; cat build/stm32-$$b/servo-$$b.stack; \
+	    echo "$$b bootloader"; cat build/stm32-$$b/servo-boot-$$b.stack; done
 
-# Write BOARD's image over the STM32 serial bootloader (BOOT0 high, then reset): the
-# wiring is in board/README.md. The store's pages at the top of flash are left alone.
+# Write BOARD's bootloader and application (servo-<board>-full.bin) over the STM32 serial
+# bootloader (BOOT0 high, then reset): the wiring is in board/README.md. Erases the
+# bootloader and both slots (60 pages: nothing an earlier update left in the staging slot
+# can then be installed over the new application); the store's 4 pages at the top of
+# flash keep the servo's settings.
 flash: deps
 	@$(call fw_build,$(BOARD))
-	@img=build/stm32-$(BOARD)/servo-$(BOARD).bin; \
-	pages=$$(( ($$(stat -c %s $$img) + 1023) / 1024 )); \
-	cmd="stm32flash -b 115200 -e $$pages -w $$img -v -g 0x08000000 $(PORT)"; \
+	@img=build/stm32-$(BOARD)/servo-$(BOARD)-full.bin; \
+	cmd="stm32flash -b 115200 -e 60 -w $$img -v -g 0x08000000 $(PORT)"; \
 	echo "$$cmd"; \
 	command -v stm32flash >/dev/null || { echo "make flash: stm32flash is not" \
 	    "installed (Debian: apt-get install stm32flash)" >&2; exit 1; }; \

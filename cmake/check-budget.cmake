@@ -1,12 +1,11 @@
-# Flash and RAM of a firmware image against the budget (issue 7: application <= 32 KiB
-# flash, <= 6 KiB RAM including the stack, so it fits 8 KiB-RAM parts; goal 16 KiB
-# flash), from the linker script's symbols. Also fails if the heap got linked in.
-# Prints the figures and writes one row of the size table to OUT.
-# Usage: cmake -DNM=arm-none-eabi-nm -DELF=x.elf -DBOARD=arm -DOUT=x.size -P check-budget.cmake
-set(BUDGET_FLASH 32768)
-set(BUDGET_RAM 6144)
-set(GOAL_FLASH 16384)
-
+# Flash and RAM of a firmware image against its budget, from the linker script's symbols
+# (_flash_start, _flash_end, _ram_end, and the budgets _budget_flash, _budget_ram: the
+# application 27 KiB - 4 flash (its slot less the install mark), the bootloader 6 KiB; 6 KiB RAM including the stack for both,
+# so they fit 8 KiB-RAM parts). Also fails if the heap got linked in. Prints the figures
+# and writes one row of make firmware's size table to OUT:
+#   ROW flash ram vectors code+data bss stack
+# Usage: cmake -DNM=arm-none-eabi-nm -DELF=x.elf -DNAME=servo-arm -DROW=arm -DOUT=x.size
+#              [-DGOAL_FLASH=16384] -P check-budget.cmake
 execute_process(COMMAND ${NM} ${ELF} OUTPUT_VARIABLE syms RESULT_VARIABLE rc)
 if(NOT rc EQUAL 0)
     message(FATAL_ERROR "nm failed on ${ELF}")
@@ -27,6 +26,9 @@ if(heap)
     message(FATAL_ERROR "dynamic allocation in ${ELF}: ${heap}")
 endif()
 
+symbol(_budget_flash budget_flash)
+symbol(_budget_ram budget_ram)
+symbol(_flash_start flash_start)
 symbol(_flash_end flash_end)
 symbol(_ram_end ram_end)
 symbol(_stack_bottom stack_bottom)
@@ -34,26 +36,27 @@ symbol(_sdata sdata)
 symbol(_edata edata)
 symbol(_sbss sbss)
 symbol(_ebss ebss)
-math(EXPR flash "${flash_end} - 0x08000000")
+math(EXPR flash "${flash_end} - ${flash_start}")
 math(EXPR ram "${ram_end} - 0x20000000")
 math(EXPR stack "${ram_end} - ${stack_bottom}")
 math(EXPR data "${edata} - ${sdata}")
 math(EXPR bss "${ebss} - ${sbss}")
 math(EXPR vectors "${ram} - ${data} - ${bss} - ${stack}") # vector table, alignment
-math(EXPR flash_pct "100 * ${flash} / ${BUDGET_FLASH}")
-math(EXPR ram_pct "100 * ${ram} / ${BUDGET_RAM}")
+math(EXPR flash_pct "100 * ${flash} / ${budget_flash}")
+math(EXPR ram_pct "100 * ${ram} / ${budget_ram}")
 
 set(goal "")
-if(flash GREATER GOAL_FLASH)
-    set(goal " (over the 16 KiB goal)")
+if(DEFINED GOAL_FLASH AND flash GREATER GOAL_FLASH)
+    math(EXPR goal_kib "${GOAL_FLASH} / 1024")
+    set(goal " (over the ${goal_kib} KiB goal)")
 endif()
-message(STATUS "servo-${BOARD}: flash ${flash} of ${BUDGET_FLASH} B (${flash_pct}%)${goal}, "
-               "RAM ${ram} of ${BUDGET_RAM} B (${ram_pct}%: "
+message(STATUS "${NAME}: flash ${flash} of ${budget_flash} B (${flash_pct}%)${goal}, "
+               "RAM ${ram} of ${budget_ram} B (${ram_pct}%: "
                "vectors ${vectors}, code+data ${data}, bss ${bss}, stack ${stack})")
-file(WRITE ${OUT} "${BOARD} ${flash} ${ram} ${vectors} ${data} ${bss} ${stack}\n")
-if(flash GREATER BUDGET_FLASH)
-    message(FATAL_ERROR "servo-${BOARD}: flash ${flash} B over the ${BUDGET_FLASH} B budget")
+file(WRITE ${OUT} "${ROW} ${flash} ${ram} ${vectors} ${data} ${bss} ${stack}\n")
+if(flash GREATER budget_flash)
+    message(FATAL_ERROR "${NAME}: flash ${flash} B over the ${budget_flash} B budget")
 endif()
-if(ram GREATER BUDGET_RAM)
-    message(FATAL_ERROR "servo-${BOARD}: RAM ${ram} B over the ${BUDGET_RAM} B budget")
+if(ram GREATER budget_ram)
+    message(FATAL_ERROR "${NAME}: RAM ${ram} B over the ${budget_ram} B budget")
 endif()

@@ -1,14 +1,25 @@
-# Cross build for the STM32F103: the firmware image of one board (BOARD, board/<name>/)
-# on the port in hal/stm32f1/. Floating point is banned from the core and the port:
-# -mgeneral-regs-only makes any float arithmetic a compile error, and the link checks
-# below fail the build if a soft-float helper, the heap, or flash-resident code on the
-# interrupt path sneaks into the image, or if it outgrows its flash and RAM budget.
+# Cross build for the STM32F103: the firmware of one board (BOARD, board/<name>/) on the
+# port in hal/stm32f1/, as three images in the build directory:
+#   servo-<board>.elf/.bin/.hex          the application, linked for the application slot
+#                                        (0x08001800); the .bin, stamped by
+#                                        tools/fwstamp.py, is the update file (§10)
+#   servo-boot-<board>.elf/.bin/.hex     the bootloader (0x08000000, 6 KiB)
+#   servo-<board>-full.bin/.hex          both, for a first flashing (make flash)
+# Floating point is banned from the core and the port: -mgeneral-regs-only makes any float
+# arithmetic a compile error, and the link checks below fail the build if a soft-float
+# helper, the heap, or flash-resident code on the interrupt path sneaks into an image, or
+# if it outgrows its flash and RAM budget.
 set(SERVO_BOARDS base foot arm wrist finger)
 if(NOT BOARD IN_LIST SERVO_BOARDS)
     message(FATAL_ERROR "BOARD=${BOARD}: choose one of ${SERVO_BOARDS}")
 endif()
 include(${CMAKE_SOURCE_DIR}/board/${BOARD}/board.cmake) # BOARD_MCU
-set(SERVO_LDSCRIPT ${CMAKE_SOURCE_DIR}/board/${BOARD_MCU}.ld)
+string(TOUPPER ${BOARD} board_upper)
+set(SERVO_MODEL BOARD_MODEL_${board_upper}) # include/board.h
+set(SERVO_LDDIR ${CMAKE_SOURCE_DIR}/board)
+set(SERVO_LDPARTS ${SERVO_LDDIR}/${BOARD_MCU}-memory.ld ${SERVO_LDDIR}/${BOARD_MCU}-sections.ld)
+set(SERVO_APP_ORIGIN 0x08001800)  # board/stm32f103x8-memory.ld
+set(SERVO_BOOT_ORIGIN 0x08000000)
 
 # -fstack-usage: each function's frame (.su beside its object) for stack_report.py.
 foreach(part bus motion)
@@ -18,45 +29,118 @@ endforeach()
 find_program(SERVO_PYTHON3 python3 PATHS /usr/bin NO_DEFAULT_PATH)
 find_program(SERVO_PYTHON3 python3 REQUIRED)
 
-set(image servo-${BOARD})
-add_executable(${image}.elf
+# The port's files both images use.
+set(SERVO_PORT_SOURCES
     hal/stm32f1/startup.c
     hal/stm32f1/clock.c
     hal/stm32f1/gpio.c
     hal/stm32f1/uart.c
     hal/stm32f1/flash.c
+    hal/stm32f1/iwdg.c)
+
+# Relink (and so re-run the checks) when a linker script or a check changes.
+set(SERVO_CHECKS hal/stm32f1/check_isr_ram.py hal/stm32f1/stack_report.py
+    cmake/check-budget.cmake cmake/check-no-float.cmake)
+list(TRANSFORM SERVO_CHECKS PREPEND ${CMAKE_SOURCE_DIR}/)
+
+# Link an image with its linker script, then check it: no float, the interrupt path in
+# RAM, the worst-case stack (from the .su files in stack_dirs), the budget (the linker
+# script's; writes <name>.size for make firmware's table). Extra arguments: -D options
+# for check-budget.cmake.
+function(servo_link_and_check name ldscript stack_dirs)
+    target_compile_options(${name}.elf PRIVATE ${SERVO_WARNINGS} -mgeneral-regs-only
+                           -fstack-usage)
+    target_link_options(${name}.elf PRIVATE
+        -L${SERVO_LDDIR} -T${ldscript}
+        -Wl,-Map=${CMAKE_BINARY_DIR}/${name}.map)
+    set_target_properties(${name}.elf PROPERTIES
+        LINK_DEPENDS "${ldscript};${SERVO_LDPARTS};${SERVO_CHECKS}")
+    list(JOIN stack_dirs ":" dirs)
+    add_custom_command(TARGET ${name}.elf POST_BUILD
+        COMMAND ${CMAKE_COMMAND} -DNM=arm-none-eabi-nm -DELF=$<TARGET_FILE:${name}.elf>
+                -P ${CMAKE_SOURCE_DIR}/cmake/check-no-float.cmake
+        COMMAND ${SERVO_PYTHON3} ${CMAKE_SOURCE_DIR}/hal/stm32f1/check_isr_ram.py
+                $<TARGET_FILE:${name}.elf>
+        COMMAND ${SERVO_PYTHON3} ${CMAKE_SOURCE_DIR}/hal/stm32f1/stack_report.py
+                $<TARGET_FILE:${name}.elf> ${dirs} ${CMAKE_BINARY_DIR}/${name}.stack
+        COMMAND ${CMAKE_COMMAND} -DNM=arm-none-eabi-nm -DELF=$<TARGET_FILE:${name}.elf>
+                -DNAME=${name} -DROW=${BOARD} -DOUT=${CMAKE_BINARY_DIR}/${name}.size ${ARGN}
+                -P ${CMAKE_SOURCE_DIR}/cmake/check-budget.cmake
+        BYPRODUCTS ${CMAKE_BINARY_DIR}/${name}.map ${CMAKE_BINARY_DIR}/${name}.size
+                   ${CMAKE_BINARY_DIR}/${name}.stack
+        VERBATIM)
+endfunction()
+
+# ---- The application: the core, the port, main() and the image info block ----
+set(image servo-${BOARD})
+add_executable(${image}.elf ${SERVO_PORT_SOURCES}
     hal/stm32f1/motor.c
-    hal/stm32f1/iwdg.c
-    hal/stm32f1/main.c)
+    hal/stm32f1/main.c
+    hal/stm32f1/image_info.c)
 target_include_directories(${image}.elf PRIVATE hal/stm32f1 board/${BOARD})
 target_link_libraries(${image}.elf PRIVATE servo_core)
-target_compile_options(${image}.elf PRIVATE ${SERVO_WARNINGS} -mgeneral-regs-only -fstack-usage)
-target_compile_definitions(${image}.elf PRIVATE SERVO_BOARD=board_${BOARD})
-target_link_options(${image}.elf PRIVATE
-    -T${SERVO_LDSCRIPT}
-    -Wl,-Map=${CMAKE_BINARY_DIR}/${image}.map)
-# Relink (and so re-run the checks below) when the linker script or a check changes.
-set(checks hal/stm32f1/check_isr_ram.py hal/stm32f1/stack_report.py
-    cmake/check-budget.cmake cmake/check-no-float.cmake)
-list(TRANSFORM checks PREPEND ${CMAKE_SOURCE_DIR}/)
-set_target_properties(${image}.elf PROPERTIES LINK_DEPENDS "${SERVO_LDSCRIPT};${checks}")
-
+target_compile_definitions(${image}.elf PRIVATE SERVO_BOARD=board_${BOARD}
+                           SERVO_MODEL=${SERVO_MODEL} SERVO_FW_VERSION=${SERVO_FW_VERSION})
+servo_link_and_check(${image} ${SERVO_LDDIR}/${BOARD_MCU}.ld
+    "${CMAKE_BINARY_DIR}/CMakeFiles/servo_bus.dir;${CMAKE_BINARY_DIR}/CMakeFiles/servo_motion.dir;${CMAKE_BINARY_DIR}/CMakeFiles/${image}.elf.dir"
+    -DGOAL_FLASH=16384)
+# The update file: the raw binary with its info block completed (length, CRC-32); the
+# .hex is that same stamped binary at the application slot's address.
 add_custom_command(TARGET ${image}.elf POST_BUILD
-    COMMAND ${CMAKE_COMMAND} -DNM=arm-none-eabi-nm -DELF=$<TARGET_FILE:${image}.elf>
-            -P ${CMAKE_SOURCE_DIR}/cmake/check-no-float.cmake
-    COMMAND ${SERVO_PYTHON3} ${CMAKE_SOURCE_DIR}/hal/stm32f1/check_isr_ram.py
-            $<TARGET_FILE:${image}.elf>
-    COMMAND ${SERVO_PYTHON3} ${CMAKE_SOURCE_DIR}/hal/stm32f1/stack_report.py
-            $<TARGET_FILE:${image}.elf> ${CMAKE_BINARY_DIR} ${CMAKE_BINARY_DIR}/${image}.stack
-    COMMAND ${CMAKE_COMMAND} -DNM=arm-none-eabi-nm -DELF=$<TARGET_FILE:${image}.elf>
-            -DBOARD=${BOARD} -DOUT=${CMAKE_BINARY_DIR}/${image}.size
-            -P ${CMAKE_SOURCE_DIR}/cmake/check-budget.cmake
-    COMMAND ${CMAKE_OBJCOPY} -O binary $<TARGET_FILE:${image}.elf> ${CMAKE_BINARY_DIR}/${image}.bin
-    COMMAND ${CMAKE_OBJCOPY} -O ihex $<TARGET_FILE:${image}.elf> ${CMAKE_BINARY_DIR}/${image}.hex
-    BYPRODUCTS ${CMAKE_BINARY_DIR}/${image}.bin ${CMAKE_BINARY_DIR}/${image}.hex
-               ${CMAKE_BINARY_DIR}/${image}.map ${CMAKE_BINARY_DIR}/${image}.size
-               ${CMAKE_BINARY_DIR}/${image}.stack
+    COMMAND ${CMAKE_OBJCOPY} -O binary $<TARGET_FILE:${image}.elf>
+            ${CMAKE_BINARY_DIR}/${image}-unstamped.bin
+    COMMAND ${SERVO_PYTHON3} ${CMAKE_SOURCE_DIR}/tools/fwstamp.py
+            ${CMAKE_BINARY_DIR}/${image}-unstamped.bin ${CMAKE_BINARY_DIR}/${image}.bin
+    COMMAND ${CMAKE_OBJCOPY} -I binary -O ihex --change-addresses ${SERVO_APP_ORIGIN}
+            ${CMAKE_BINARY_DIR}/${image}.bin ${CMAKE_BINARY_DIR}/${image}.hex
+    BYPRODUCTS ${CMAKE_BINARY_DIR}/${image}-unstamped.bin ${CMAKE_BINARY_DIR}/${image}.bin
+               ${CMAKE_BINARY_DIR}/${image}.hex
     VERBATIM)
+
+# ---- The bootloader: the port without the motor, and only the core it needs ----
+# Compiled here rather than taken from servo_core, so nothing of motion, dispatch or the
+# trajectory store can be linked in; servo.c is here for servo_rx_isr() alone (the link's
+# garbage collection drops servo_init/servo_poll and what they call).
+set(boot servo-boot-${BOARD})
+add_executable(${boot}.elf ${SERVO_PORT_SOURCES}
+    hal/stm32f1/boot_main.c
+    hal/stm32f1/boot_libc.c
+    src/frame_rx.c
+    src/link.c
+    src/proto.c
+    src/regs.c
+    src/store.c
+    src/crc.c
+    src/image.c
+    src/boot.c
+    src/update.c
+    src/loader.c
+    src/servo.c
+    board/boards.c)
+target_include_directories(${boot}.elf PRIVATE include hal hal/stm32f1 board/${BOARD})
+set_source_files_properties(hal/stm32f1/boot_libc.c PROPERTIES
+                            COMPILE_OPTIONS -fno-tree-loop-distribute-patterns)
+target_compile_definitions(${boot}.elf PRIVATE SERVO_BOOTLOADER SERVO_BOARD=board_${BOARD}
+                           SERVO_MODEL=${SERVO_MODEL} SERVO_FW_VERSION=${SERVO_FW_VERSION})
+servo_link_and_check(${boot} ${SERVO_LDDIR}/${BOARD_MCU}-boot.ld
+    "${CMAKE_BINARY_DIR}/CMakeFiles/${boot}.elf.dir")
+add_custom_command(TARGET ${boot}.elf POST_BUILD
+    COMMAND ${CMAKE_OBJCOPY} -O binary $<TARGET_FILE:${boot}.elf> ${CMAKE_BINARY_DIR}/${boot}.bin
+    COMMAND ${CMAKE_OBJCOPY} -O ihex $<TARGET_FILE:${boot}.elf> ${CMAKE_BINARY_DIR}/${boot}.hex
+    BYPRODUCTS ${CMAKE_BINARY_DIR}/${boot}.bin ${CMAKE_BINARY_DIR}/${boot}.hex
+    VERBATIM)
+
+# ---- First flashing: the bootloader padded with 0xFF to 6 KiB, then the stamped
+# application (what make flash writes at 0x08000000, and what the QEMU tests boot) ----
+set(full ${CMAKE_BINARY_DIR}/${image}-full)
+add_custom_command(OUTPUT ${full}.bin ${full}.hex
+    COMMAND ${SERVO_PYTHON3} ${CMAKE_SOURCE_DIR}/hal/stm32f1/full_image.py
+            ${CMAKE_BINARY_DIR}/${boot}.bin ${CMAKE_BINARY_DIR}/${image}.bin ${full}.bin
+    COMMAND ${CMAKE_OBJCOPY} -I binary -O ihex --change-addresses ${SERVO_BOOT_ORIGIN}
+            ${full}.bin ${full}.hex
+    DEPENDS ${image}.elf ${boot}.elf ${CMAKE_SOURCE_DIR}/hal/stm32f1/full_image.py
+    VERBATIM)
+add_custom_target(${image}-full ALL DEPENDS ${full}.bin ${full}.hex)
 
 # The porting checklist compiles against hal.h (signatures kept in step); never linked.
 add_library(hal_template OBJECT hal/template/hal_template.c)

@@ -1,16 +1,19 @@
 #!/usr/bin/python3
-"""qemu_ping.py - the arm firmware image, exactly as `make flash` writes it, answers the
-bus under QEMU.
+"""qemu_ping.py - the arm firmware, exactly as `make flash` writes it (bootloader and
+stamped application, servo-arm-full.bin), answers the bus under QEMU.
 
-Boots the STM32 image on QEMU's stm32vldiscovery machine (STM32F100: Cortex-M3, USART1
+Boots the combined image on QEMU's stm32vldiscovery machine (STM32F100: Cortex-M3, USART1
 at the F103's address, 8 KiB RAM; RCC, flash controller, timers, GPIO and ADC are not
-modelled, so the image runs its clock fall-back), with USART1 on a TCP socket and the
-store's flash pages erased, then on the bus at 9600 baud:
+modelled, so the images run their clock fall-back) with USART1 on a TCP socket, and the
+staging slot and the store's pages erased. The bootloader checks the application's CRC
+and starts it; then, on the bus at 9600 baud:
   - PING ID 1:  D5 5D 01 02 01 04  ->  D5 5D 01 03 01 00 05, after the 8 ms return delay
   - READ of the model number (registers 0-1)  ->  the arm's 0x5203
 QEMU is always killed; the whole run is bounded well under 30 s.
 
-Usage: qemu_ping.py build/stm32/servo-arm.elf   (python3 standard library only)
+Usage: qemu_ping.py build/stm32/servo-arm-full.bin build/stm32/servo-arm.elf
+(the application's ELF gives the flash map's symbols; python3 standard library only).
+tests/qemu_boot.py boots the same image with its application broken.
 """
 import os
 import signal
@@ -22,31 +25,41 @@ import time
 
 DEADLINE_S = 25.0
 BOOT_S = 10.0
+FLASH_BASE = 0x08000000
 PING = bytes.fromhex("D55D01020104")
 PING_ANSWER = bytes.fromhex("D55D0103010005")
 READ_MODEL = bytes.fromhex("D55D010402000209")   # READ addr 0, 2 bytes
 READ_ANSWER = bytes.fromhex("D55D01040003525A")  # ERR 0, 0x5203 little-endian
 RETURN_DELAY_S = 0.008                            # register 5 default 16 x 500 us
 ATTEMPTS = 3
+NAME = os.path.splitext(os.path.basename(sys.argv[0]))[0]
 
 
 def fail(msg):
-    print(f"qemu_ping: FAIL: {msg}", file=sys.stderr)
+    print(f"{NAME}: FAIL: {msg}", file=sys.stderr)
     sys.exit(1)
 
 
-def store_start(elf):
-    """Address of the store's pages, from the image's own symbol table."""
+def say(msg):
+    print(f"{NAME}: {msg}")
+
+
+def symbols(elf, *names):
+    """Addresses of the flash map's symbols, from the application's symbol table."""
     try:
         out = subprocess.run(["arm-none-eabi-nm", elf], check=True, capture_output=True,
                              text=True).stdout
     except (OSError, subprocess.CalledProcessError) as e:
         fail(f"arm-none-eabi-nm {elf}: {e}")
+    found = {}
     for line in out.splitlines():
         parts = line.split()
-        if len(parts) == 3 and parts[2] == "_store_start":
-            return int(parts[0], 16)
-    fail(f"{elf} has no _store_start symbol")
+        if len(parts) == 3 and parts[2] in names:
+            found[parts[2]] = int(parts[0], 16)
+    missing = [n for n in names if n not in found]
+    if missing:
+        fail(f"{elf} has no {' '.join(missing)} (linker script?)")
+    return [found[n] for n in names]
 
 
 def free_port():
@@ -80,86 +93,101 @@ def ask(sock, frame, answer, what):
         got, first = transact(sock, frame, len(answer))
         if got:
             break
-        print(f"qemu_ping: warning: no answer to {what} (attempt {attempt})")
+        say(f"warning: no answer to {what} (attempt {attempt})")
         time.sleep(0.05)
     if got != answer:
         fail(f"{what}: sent {frame.hex(' ')}, expected {answer.hex(' ')}, got "
              f"{got.hex(' ') or 'nothing'}")
-    print(f"qemu_ping: {what}: {frame.hex(' ')} -> {got.hex(' ')} after "
-          f"{first * 1000:.1f} ms")
+    say(f"{what}: {frame.hex(' ')} -> {got.hex(' ')} after {first * 1000:.1f} ms")
     return first
 
 
-def run(elf, qemu, workdir):
-    erased = os.path.join(workdir, "store.bin")
-    with open(erased, "wb") as f:
-        f.write(b"\xff" * 4096)
-    base = store_start(elf)
-    for _ in range(3):  # a port taken between choosing and binding: choose again
-        port = free_port()
-        cmd = [qemu, "-M", "stm32vldiscovery", "-nographic", "-monitor", "none",
-               "-no-reboot", "-kernel", elf,
-               "-device", f"loader,file={erased},addr=0x{base:08x}",
-               "-serial", f"tcp:127.0.0.1:{port},server=on,wait=off,nodelay=on"]
-        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
-        try:
-            sock = None
-            t0 = time.monotonic()
-            while sock is None and proc.poll() is None and time.monotonic() - t0 < 5:
-                try:
-                    sock = socket.create_connection(("127.0.0.1", port), timeout=1)
-                except OSError:
-                    time.sleep(0.05)
-            if sock is None:
-                continue
-            with sock:
-                print("qemu_ping: " + " ".join(cmd))
-                # Boot: the image answers once servo_init is done.
-                t0 = time.monotonic()
-                while True:
-                    got, _ = transact(sock, PING, len(PING_ANSWER), 0.3)
-                    if got:
-                        break
-                    if proc.poll() is not None:
-                        fail(f"QEMU exited ({proc.returncode}) during boot: the image "
-                             "reset or faulted")
-                    if time.monotonic() - t0 > BOOT_S:
-                        fail(f"no answer to PING within {BOOT_S:.0f} s of boot")
-                print(f"qemu_ping: booted, first answer after "
-                      f"{time.monotonic() - t0:.2f} s")
-                delay = ask(sock, PING, PING_ANSWER, "PING")
-                if delay < RETURN_DELAY_S - 0.001:
-                    fail(f"PING answered after {delay * 1000:.1f} ms, before the "
-                         f"{RETURN_DELAY_S * 1000:.0f} ms return delay")
-                ask(sock, READ_MODEL, READ_ANSWER, "READ model number")
-                ask(sock, PING, PING_ANSWER, "PING again")
-                if proc.poll() is not None:
-                    fail(f"QEMU exited ({proc.returncode})")
-                return
-        finally:
-            proc.kill()
-            out = proc.communicate(timeout=5)[0].decode(errors="replace").strip()
-            if out and "terminating" not in out:
-                print("qemu_ping: QEMU said: " + out)
-    fail("could not start QEMU with a serial socket")
+def until_answered(sock, proc, frame, want, what):
+    """Resend frame until something answers (the image is booting); the answer."""
+    t0 = time.monotonic()
+    while True:
+        got, _ = transact(sock, frame, want, 0.3)
+        if got:
+            say(f"booted, first answer to {what} after {time.monotonic() - t0:.2f} s")
+            return got
+        if proc.poll() is not None:
+            fail(f"QEMU exited ({proc.returncode}) during boot: the image reset or faulted")
+        if time.monotonic() - t0 > BOOT_S:
+            fail(f"no answer to {what} within {BOOT_S:.0f} s of boot")
 
 
-def main():
-    if len(sys.argv) != 2:
-        fail("usage: qemu_ping.py servo-arm.elf")
-    elf = sys.argv[1]
-    if not os.path.isfile(elf):
-        fail(f"{elf} not found: build the stm32 preset first (make stm32)")
+def with_qemu(image, elf, session):
+    """Boot image (a whole-flash image from FLASH_BASE) with the staging slot and the
+    store erased, USART1 on a socket; session(sock, proc) talks to it. QEMU is always
+    killed."""
     qemu = "qemu-system-arm"
     try:
         subprocess.run([qemu, "--version"], check=True, capture_output=True)
     except (OSError, subprocess.CalledProcessError):
         fail("qemu-system-arm not found: tools/install-deps.sh installs it")
+    staging, store_end = symbols(elf, "_staging_start", "_store_end")
+    with tempfile.TemporaryDirectory() as workdir:
+        erased = os.path.join(workdir, "erased.bin")
+        with open(erased, "wb") as f:  # QEMU's flash starts as zeros, silicon's as 0xFF
+            f.write(b"\xff" * (store_end - staging))
+        for _ in range(3):  # a port taken between choosing and binding: choose again
+            port = free_port()
+            cmd = [qemu, "-M", "stm32vldiscovery", "-nographic", "-monitor", "none",
+                   "-no-reboot",
+                   "-device", f"loader,file={image},addr=0x{FLASH_BASE:08x}",
+                   "-device", f"loader,file={erased},addr=0x{staging:08x}",
+                   "-serial", f"tcp:127.0.0.1:{port},server=on,wait=off,nodelay=on"]
+            proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+            try:
+                sock = None
+                t0 = time.monotonic()
+                while sock is None and proc.poll() is None and time.monotonic() - t0 < 5:
+                    try:
+                        sock = socket.create_connection(("127.0.0.1", port), timeout=1)
+                    except OSError:
+                        time.sleep(0.05)
+                if sock is None:
+                    continue
+                with sock:
+                    say(" ".join(cmd))
+                    session(sock, proc)
+                    if proc.poll() is not None:
+                        fail(f"QEMU exited ({proc.returncode})")
+                    return
+            finally:
+                proc.kill()
+                out = proc.communicate(timeout=5)[0].decode(errors="replace").strip()
+                if out and "terminating" not in out:
+                    say("QEMU said: " + out)
+    fail("could not start QEMU with a serial socket")
+
+
+def arguments(usage):
+    """(combined image, application ELF) from the command line; the deadline armed."""
+    if len(sys.argv) != 3:
+        fail("usage: " + usage)
+    for path in sys.argv[1:]:
+        if not os.path.isfile(path):
+            fail(f"{path} not found: build the stm32 preset first (make stm32)")
     signal.signal(signal.SIGALRM, lambda *_: fail(f"over {DEADLINE_S:.0f} s"))
     signal.setitimer(signal.ITIMER_REAL, DEADLINE_S)
-    with tempfile.TemporaryDirectory() as workdir:
-        run(elf, qemu, workdir)
-    print("qemu_ping: PASS")
+    return sys.argv[1], sys.argv[2]
+
+
+def ping_session(sock, proc):
+    until_answered(sock, proc, PING, len(PING_ANSWER), "PING")
+    delay = ask(sock, PING, PING_ANSWER, "PING")
+    if delay < RETURN_DELAY_S - 0.001:
+        fail(f"PING answered after {delay * 1000:.1f} ms, before the "
+             f"{RETURN_DELAY_S * 1000:.0f} ms return delay")
+    ask(sock, READ_MODEL, READ_ANSWER, "READ model number")
+    ask(sock, PING, PING_ANSWER, "PING again")
+
+
+def main():
+    image, elf = arguments("qemu_ping.py servo-arm-full.bin servo-arm.elf")
+    with_qemu(image, elf, ping_session)
+    say("PASS")
 
 
 if __name__ == "__main__":

@@ -130,7 +130,7 @@ extern struct hal hal_stm32;
 /* startup.c: the exception handlers' one way out: outputs safe, then a system reset. */
 void fault_reset(void) __attribute__((noreturn));
 
-/* clock.c: clock tree with fall-backs and flash wait states (reset, before main). */
+/* clock.c: clock tree with fall-backs and flash wait states (main(), after gpio_init). */
 void clock_init(struct hal *h);
 /* clock.c: SysTick 1 kHz time base (hal_clock_us). */
 void clock_tick_start(struct hal *h);

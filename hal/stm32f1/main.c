@@ -10,13 +10,14 @@
 #error "SERVO_BOARD (board_arm, board_base, ...) comes from CMake's BOARD"
 #endif
 
-struct hal hal_stm32; /* clock_init() filled in the clock tree before main() */
+struct hal hal_stm32;
 static struct servo servo;
 
 int main(void)
 {
     struct hal *h = &hal_stm32;
     gpio_init();          /* bridge asleep, RS485 driver off */
+    clock_init(h);        /* from the reset clock (HSI) the bootloader left */
     clock_tick_start(h);  /* hal_clock_us() */
     uart_init(h);         /* receiver on, interrupt still off */
     motor_init(h, &SERVO_BOARD);

@@ -4,7 +4,8 @@ USART1 handler, servo_rx_isr(), hal_clock_us() and frame_rx_byte(), counted by
 single-stepping the image under QEMU with gdb while a READ frame arrives.
 
 Needs qemu-system-arm and gdb-multiarch (Debian packages; not part of make test).
-Usage: qemu_isr_cost.py build/stm32/servo-arm.elf
+Usage: qemu_isr_cost.py build/stm32/servo-arm.elf  (symbols from the application's ELF;
+QEMU boots servo-arm-full.bin beside it: the bootloader starts the application)
 """
 import os
 import socket
@@ -23,6 +24,7 @@ def free_port():
 
 
 def main(elf):
+    full = elf[:-len(".elf")] + "-full.bin"
     nm = subprocess.run(["arm-none-eabi-nm", elf], check=True, capture_output=True,
                         text=True).stdout
     handler = next(int(l.split()[0], 16) for l in nm.splitlines()
@@ -55,7 +57,8 @@ kill
 """
     port, serial = free_port(), free_port()
     qemu = subprocess.Popen(["qemu-system-arm", "-M", "stm32vldiscovery", "-nographic",
-                             "-monitor", "none", "-kernel", elf, "-gdb",
+                             "-monitor", "none", "-device",
+                             f"loader,file={full},addr=0x08000000", "-gdb",
                              f"tcp:127.0.0.1:{port}", "-serial",
                              f"tcp:127.0.0.1:{serial},server=on,wait=off,nodelay=on"],
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)

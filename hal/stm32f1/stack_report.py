@@ -6,7 +6,8 @@ Frame sizes come from GCC's -fstack-usage (.su files of the core and the port); 
 functions without one (memcpy, the 64-bit division helpers) are sized from their code:
 every push and stack-pointer decrement in them, added up. The call graph is the linked
 image's own: every direct call and tail jump in the disassembly. An indirect call, recursion or a frame GCC calls "dynamic"
-fails the check, since the bound would be unknown.
+fails the check, since the bound would be unknown. One indirect branch is not a call: the
+bootloader's hand-over to the application, `msr msp` (a new stack) right before `bx`.
 
 Interrupts nest as the port sets them up: the main loop (reset_handler -> main), then
 USART1 on top, SysTick above USART1, and a fault or NMI above everything; each exception
@@ -15,8 +16,10 @@ entry stacks 8 words plus 4 bytes of alignment.
 The nested total must also stay within BUDGET_PCT (75 %) of the reserved stack, the margin
 for what the analysis cannot see (compiler changes, a later HAL call on the path).
 
-Usage: stack_report.py image.elf build_dir [report.txt]   (arm-none-eabi-nm/objdump on
-the PATH); report.txt gets the table printed, for `make firmware` and `make bench`.
+Usage: stack_report.py image.elf build_dir[:build_dir...] [report.txt]
+(arm-none-eabi-nm/objdump on the PATH): the .su files are those under the build_dirs
+(the image's own objects); report.txt gets the table printed, for `make firmware` and
+`make bench`.
 """
 import glob
 import os
@@ -40,7 +43,10 @@ def run(*cmd):
 
 def main(elf, build_dir, report=None):
     su = {}  # function name -> (bytes, qualifier); the largest if a name repeats
-    for path in glob.glob(os.path.join(build_dir, "**", "*.su"), recursive=True):
+    paths = []
+    for d in build_dir.split(":"):
+        paths += glob.glob(os.path.join(d, "**", "*.su"), recursive=True)
+    for path in paths:
         for line in open(path):
             where, size, kind = line.rstrip("\n").split("\t")
             name = where.rsplit(":", 1)[-1]
@@ -58,7 +64,7 @@ def main(elf, build_dir, report=None):
             syms[name] = int(addr, 16)
 
     calls, frame, problems = {}, {}, {}
-    cur = None
+    cur, prev = None, ""
     asm = run("arm-none-eabi-objdump", "-D", "--no-show-raw-insn", "-j", ".data", "-j",
               ".text", elf)
     for line in asm.splitlines():
@@ -74,6 +80,8 @@ def main(elf, build_dir, report=None):
         if not cur or not m:
             continue
         op, args = m.group(1), m.group(2)
+        handover = re.match(r"msr\s+msp,", prev, re.I) is not None  # and this is bx
+        prev = op + " " + args
         # Frame of a function GCC did not size (library code): every stack decrement in
         # its body, added up (an upper bound where exit paths repeat a push).
         if cur not in su:
@@ -93,7 +101,7 @@ def main(elf, build_dir, report=None):
             t = re.search(r"\b([0-9a-f]+) <([^+>]+)>", args)
             if t and t.group(2) != cur and t.group(2) in syms:
                 calls[cur].add(t.group(2))
-        elif op == "blx" or (op == "bx" and not args.startswith("lr")):
+        elif op == "blx" or (op == "bx" and not args.startswith("lr") and not handover):
             problems.setdefault(cur, []).append(f"indirect call ({op} {args})")
 
     def own(name):

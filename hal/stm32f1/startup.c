@@ -1,6 +1,9 @@
-/* startup.c - reset: vector table, RAM set-up, clock, then main(); and the one fault
- * path (outputs safe, system reset). The vector table is copied to RAM at boot so that
- * interrupts keep being taken while a flash erase stalls every flash read. */
+/* startup.c - reset: vector table, RAM set-up, then main(); the one fault path (outputs
+ * safe, system reset) and hal_restart(). The vector table is copied to RAM at boot so
+ * that interrupts keep being taken while a flash erase stalls every flash read. The
+ * bootloader and the application share this file; each main() sets the clock up (the
+ * bootloader only once it knows it stays, so the application starts from the reset
+ * clock). */
 #include <stddef.h>
 #include <stdint.h>
 #include <string.h>
@@ -58,7 +61,6 @@ void reset_handler(void)
     ram_vectors[0] = (uint32_t)(uintptr_t)_estack;
     SCB->vtor = (uint32_t)(uintptr_t)ram_vectors;
     __asm volatile("dsb\n\tisb" ::: "memory");
-    clock_init(&hal_stm32);
     main();
     fault_reset();
 }
@@ -67,6 +69,14 @@ void reset_handler(void)
  * starts again (the independent watchdog would do the same, later). */
 void fault_handler(void)
 {
+    fault_reset();
+}
+
+/* The core's restart (an update staged, or installed): the same way out as a fault. The
+ * bootloader runs next. */
+void hal_restart(struct hal *h)
+{
+    (void)h;
     fault_reset();
 }
 

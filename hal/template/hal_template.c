@@ -16,7 +16,11 @@
  *     on parts whose CPU stalls on flash reads meanwhile, put that code, the vector
  *     table and the flash wait loop in RAM (hal/stm32f1/README.md shows how).
  *   - No floating point, no heap; every wait on hardware is bounded by a time-out, so
- *     a missing peripheral (or an emulator without it) never hangs the boot. */
+ *     a missing peripheral (or an emulator without it) never hangs the boot.
+ *   - Firmware update (PROTOCOL.md §10): the application is linked for the application
+ *     slot; a bootloader at the reset address calls boot_install() (boot.h) before
+ *     anything else, then starts the application or runs the loader (loader.h) in the
+ *     same way as main() runs the servo (hal/stm32f1/boot_main.c). */
 #include "hal.h"
 
 struct hal {
@@ -78,9 +82,14 @@ void hal_irq_restore(struct hal *h, uint32_t state)
     (void)state;
 }
 
-/* Any context. A memory-mapped, read-only view of store page p (< HAL_FLASH_PAGES) of
- * HAL_FLASH_PAGE_BYTES. The pages are reserved for the store (the linker script keeps
- * the application out of them) and survive a firmware update. */
+/* Any context. A memory-mapped, read-only view of page p, HAL_FLASH_PAGE_BYTES long, in
+ * the core's numbering (hal.h): pages 0 .. HAL_FLASH_PAGES-1 are the store, then the
+ * application slot (HAL_PAGE_APP, HAL_SLOT_PAGES pages: the image that runs, linked
+ * there) and the staging slot (HAL_PAGE_STAGING: where an update arrives). The store's
+ * pages are reserved (the linker script keeps every image out of them) and survive a
+ * firmware update. A page number outside these: return 0. With a bootloader (hal.h's
+ * flash map on the STM32F103: bootloader 6 KiB, the two slots, the store), the
+ * bootloader's own flash is never among the pages. */
 const uint8_t *hal_flash_page(struct hal *h, uint8_t p)
 {
     (void)h;
@@ -90,7 +99,9 @@ const uint8_t *hal_flash_page(struct hal *h, uint8_t p)
 
 /* Main loop. Erase page p to all 0xFF; may stall the main loop for tens of ms, but the
  * receive interrupt must keep running (see above). False if the hardware reports a
- * failure; the store then verifies and treats the page as bad. */
+ * failure (the store then verifies and treats the page as bad) or p is not a page of
+ * hal_flash_page(). The application should refuse its own slot (it runs from there):
+ * only the bootloader installs into it. */
 bool hal_flash_erase(struct hal *h, uint8_t p)
 {
     (void)h;
@@ -184,6 +195,16 @@ void hal_watchdog_start(struct hal *h)
 
 /* Main loop. Reload the watchdog (servo_poll calls it only while the control tick runs). */
 void hal_watchdog_feed(struct hal *h)
+{
+    (void)h;
+}
+
+/* Main loop, after the answer that announced it has left the wire (hal_uart_tx_busy()
+ * false). Reset the MCU as a power-up would, so the bootloader runs and installs the
+ * update just staged (boot.h): outputs safe first, then the core's system reset (on a
+ * Cortex-M: cpsid i; dsb; SCB->AIRCR = 0x05FA0000 | SYSRESETREQ; dsb; loop). Does not
+ * return on an MCU; the host port only records the request. */
+void hal_restart(struct hal *h)
 {
     (void)h;
 }

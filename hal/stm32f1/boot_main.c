@@ -1,0 +1,67 @@
+/* boot_main.c - the bootloader (board/stm32f103x8-boot.ld, 6 KiB at the reset address).
+ *
+ * At reset, on the reset clock (HSI 8 MHz) and with no peripheral touched, boot_install()
+ * (boot.h) installs a verified update waiting in the staging slot and says whether the
+ * application slot holds a valid image for this board's model. If it does, the
+ * application starts as if from reset: nothing has been set up that it would have to
+ * undo. If not, the bootloader stays in update mode: the loader (loader.h) answers the
+ * §10 update frames at the stored ID and baud, and restarts once an update has been
+ * staged; the next boot installs it. The motor is never driven here: the bridge stays
+ * asleep (gpio_init) and motor.c is not even linked.
+ *
+ * Watchdog: after any reset the IWDG is stopped (unless the option bytes select the
+ * hardware watchdog, see flash.c). The install runs without it: a page erase and copy
+ * take ~2 s for a full slot, and a reset in the middle only means copying again. In
+ * update mode the IWDG is started as in the application (~250 ms) and fed every loop
+ * pass: a hung loader resets into the bootloader, which comes back to update mode. The
+ * longest stall of a pass is one block's erase and programming (< 100 ms). */
+#include "boot.h"
+#include "hal_stm32f1.h"
+#include "loader.h"
+#include "servo.h"
+
+#ifndef SERVO_BOARD
+#error "SERVO_BOARD (board_arm, board_base, ...) comes from CMake's BOARD"
+#endif
+#ifndef SERVO_MODEL
+#error "SERVO_MODEL (BOARD_MODEL_ARM, ...) comes from CMake's BOARD"
+#endif
+
+struct hal hal_stm32;
+static struct servo servo; /* the loader's state: table, receiver, store, update */
+
+extern const uint32_t _app_start[]; /* stm32f103x8-memory.ld: the application's vectors */
+
+/* Start the application as the core would from reset: its vector table, its stack, its
+ * reset handler (which copies its vectors to RAM and moves VTOR there). Interrupts were
+ * never enabled, SysTick never started. */
+static __attribute__((noreturn)) void start_application(void)
+{
+    SCB->vtor = (uint32_t)(uintptr_t)_app_start;
+    __asm volatile("dsb\n\tisb" ::: "memory");
+    /* No stack use between the two: the new stack pointer, then the jump. */
+    __asm volatile("msr msp, %0\n\tbx %1" ::"r"(_app_start[0]), "r"(_app_start[1]) : "memory");
+    __builtin_unreachable();
+}
+
+int main(void)
+{
+    struct hal *h = &hal_stm32;
+    if (boot_install(h, SERVO_MODEL))
+        start_application();
+
+    gpio_init();         /* bridge asleep, RS485 driver off */
+    clock_init(h);
+    clock_tick_start(h); /* hal_clock_us() */
+    uart_init(h);        /* receiver on, interrupt still off */
+    loader_init(&servo, &SERVO_BOARD, h); /* stored ID and baud */
+    hal_watchdog_start(h);
+    uart_start(h, &servo); /* from here bytes reach the frame receiver */
+    bool emulated = h->clock_source == CLOCK_NO_RCC;
+    for (;;) {
+        loader_poll(&servo); /* restarts (hal_restart) once an update is staged */
+        hal_watchdog_feed(h);
+        if (emulated) /* as in main.c: let QEMU's I/O thread deliver the bytes */
+            __asm volatile("wfi");
+    }
+}
