@@ -4,6 +4,8 @@
 1. A full bus (253 servos, IDs 1-253): one broadcast scan against pinging the IDs one
    by one, at 9600 baud with the factory return delay and at 1,792,000 baud with none.
 2. Round-trip latency of a PING through servo-sim, against the wire time it models.
+3. Firmware update (PROTOCOL.md §10) of a 16 KiB image at 115200 baud and at 921600
+   baud (code 8, the table's nearest to 1 Mbaud), against the wire time of its bytes.
 
 BUILD_DIR holds servo-sim (default build/bench, else build/host). Called by
 tools/bench.sh (make bench)."""
@@ -19,9 +21,13 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "tools", "python"))
 
 from servobus import BROADCAST, Bus  # noqa: E402
+from servobus import image as I  # noqa: E402
 from servobus import protocol as P  # noqa: E402
 
 FAST_BAUD_CODE, FAST_BAUD = 10, 1792000
+# Update benchmark: register 4 codes. ~1 Mbaud: 921600 (code 8) is the nearest of §5.2.
+UPDATE_BAUDS = ((4, 115200), (8, 921600))
+UPDATE_BYTES = 16 * 1024
 
 
 def start_sim(sim, servos):
@@ -144,6 +150,65 @@ def main():
                   "latency is\n servo-sim's main loop, loopback TCP and the Python SDK)")
     finally:
         stop_sim(p)
+
+    update_bench(sim)
+
+
+def pace_host(bus, baud):
+    """Make the host's writes take their wire time, as on a serial port (write, then
+    drain): each frame reaches servo-sim when its last stop bit would have."""
+    write = bus._t.write
+
+    def paced(data):
+        time.sleep(len(data) * 10.0 / baud)
+        write(data)
+    bus._t.write = paced
+
+
+def one_update(sim, code, baud, delay, version, paced):
+    p, url = start_sim(sim, ["1:arm"])
+    try:
+        with Bus(url) as bus:
+            bus.write(1, {"baud_rate": code, "return_delay": delay})
+            bus.set_baud(baud)
+            time.sleep(0.05)
+            if paced:
+                pace_host(bus, baud)
+            image = I.build(UPDATE_BYTES, version, I.MODELS["arm"], seed=version)
+            assert bus.update(1, image, notify=lambda text: None) == version
+            return bus.update_stats
+    finally:
+        stop_sim(p)
+
+
+def update_bench(sim):
+    """Bus.update() of a 16 KiB image through servo-sim: the transfer (enter to the
+    end-of-batch answer) against the wire time of its bytes, both directions."""
+    print()
+    print("firmware update of a %d KiB image (%d data blocks, 1036-byte frames), servo-sim arm"
+          % (UPDATE_BYTES // 1024, UPDATE_BYTES // 1024))
+    print("%-26s %9s %9s %9s %7s %9s %7s" % ("", "as is", "paced", "wire", "ratio",
+                                             "restart", "bytes"))
+    version = 1
+    for code, baud in UPDATE_BAUDS:
+        for delay in (0, 16):
+            version += 1
+            raw = one_update(sim, code, baud, delay, version, paced=False)
+            version += 1
+            st = one_update(sim, code, baud, delay, version, paced=True)
+            nbytes = st.bytes_out + st.bytes_in
+            wire = nbytes * 10.0 / baud
+            print("%-26s %7.3f s %7.3f s %7.3f s %6.2fx %7.3f s %7d%s" % (
+                "%d baud, delay %g ms" % (baud, delay / 2.0), raw.transfer_s, st.transfer_s,
+                wire, st.transfer_s / wire, st.restart_s, nbytes,
+                "  (%d frames resent)" % (st.resent + raw.resent)
+                if st.resent or raw.resent else ""))
+    print("(wire = bytes both ways x 10 bits / baud: the limit; ratio = paced / wire.\n"
+          " as is: servo-sim takes the host's bytes in no wire time (it paces only the\n"
+          " answers), so it beats the wire; paced: the bench delays each frame by its wire\n"
+          " time, as a serial port does. delay = return delay (register 5; 8 ms is the arm's\n"
+          " factory value), paid once per frame, 20 frames. restart = end-of-batch answer\n"
+          " to the version read of the restarted servo)")
 
 
 if __name__ == "__main__":

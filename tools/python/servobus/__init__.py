@@ -5,19 +5,21 @@ on servo-sim over TCP.
     with Bus("tcp://127.0.0.1:4242") as bus:
         print(bus.scan())
         bus.write(1, "goal_position", 90)
+        bus.update(1, open("app.bin", "rb").read())   # firmware update, §10
 """
 
-from .bus import Bus, Found, HomingStatus
+from .bus import Bus, Found, HomingStatus, UpdateStats
 from .errors import (BusTimeout, ChecksumError, IdTaken, InstructionError, MotionRefused,
                      ProtocolError, RangeError, ServoBusError, ServoFault, StatusError,
-                     UnknownRegister)
+                     UnknownRegister, UpdateError, UpdateRefused, UpdateTimeout)
+from .image import ImageError
 from .protocol import BROADCAST
 from .registers import REGISTERS, VARIANTS, register
 
 __all__ = [
-    "Bus", "Found", "HomingStatus", "BROADCAST", "REGISTERS", "VARIANTS", "register",
+    "Bus", "Found", "HomingStatus", "UpdateStats", "BROADCAST", "REGISTERS", "VARIANTS", "register",
     "ServoBusError", "BusTimeout", "ProtocolError", "RangeError", "UnknownRegister",
     "IdTaken", "StatusError", "InstructionError", "MotionRefused", "ChecksumError",
-    "ServoFault",
+    "ServoFault", "UpdateError", "UpdateRefused", "UpdateTimeout", "ImageError",
 ]
 __version__ = "0.1.0"

@@ -1,6 +1,7 @@
 """servoctl: command line for the servo bus (python3 -m servobus, or the servoctl script).
 
-Exit status: 0 done, 1 the bus or a servo said no (message on stderr), 2 bad usage."""
+Exit status: 0 done, 1 the bus or a servo said no (message on stderr), 2 bad usage (also
+an unreadable or invalid firmware image for `update`)."""
 
 import argparse
 import os
@@ -8,6 +9,7 @@ import re
 import sys
 import time
 
+from . import image as I
 from . import protocol as P
 from .bus import Bus
 from .errors import RangeError, ServoBusError
@@ -289,6 +291,76 @@ def cmd_monitor(bus, args):
     return 0
 
 
+class _Progress:
+    """A progress bar on stderr: blocks sent / total and bytes."""
+
+    WIDTH = 30
+
+    def __init__(self, stream=sys.stderr):
+        self.stream = stream
+        self.tty = stream.isatty()
+        self.start = time.monotonic()
+        self.open = False  # a line without its newline on the terminal
+
+    def close(self):
+        if self.open:
+            self.stream.write("\n")
+            self.open = False
+
+    def __call__(self, done, total, nbytes, total_bytes):
+        filled = self.WIDTH * done // total if total else self.WIDTH
+        line = "[%s%s] %2d/%d blocks, %6d/%d bytes, %4.1f s" % (
+            "#" * filled, "." * (self.WIDTH - filled), done, total, nbytes, total_bytes,
+            time.monotonic() - self.start)
+        if self.tty:
+            self.stream.write("\r" + line)
+            self.open = True
+            if done == total:
+                self.close()
+        elif done == 0 or done == total or done % 4 == 0:
+            self.stream.write(line + "\n")  # a log: not every block
+        self.stream.flush()
+
+
+def prepare_update(args):
+    """Before the bus is opened: read the image and (unless --no-check) validate it."""
+    try:
+        with open(args.file, "rb") as f:
+            args.data = f.read()
+    except OSError as e:
+        raise _UsageError("cannot read %s: %s" % (args.file, e.strerror or e)) from None
+    args.info = None if args.no_check else I.validate(args.data)
+    if args.retries < 0:
+        raise _UsageError("--retries is 0 or more")
+
+
+def cmd_update(bus, args):
+    if args.info is not None:
+        print("%s: %s" % (args.file, args.info.describe()), file=sys.stderr)
+        try:
+            if bus.present(args.id):
+                print("ID %d runs firmware version %d" % (
+                    args.id, bus.read(args.id, "firmware_version")), file=sys.stderr)
+        except ServoBusError:
+            pass
+    t0 = time.monotonic()
+    bar = _Progress()
+    try:
+        version = bus.update(args.id, args.data, progress=bar, retries=args.retries,
+                             check=not args.no_check,
+                             notify=lambda text: print("%s: note: %s" % (PROG, text),
+                                                       file=sys.stderr))
+    finally:
+        bar.close()
+    print("ID %d: updated in %.1f s, now runs firmware version %d" % (
+        args.id, time.monotonic() - t0, version))
+    return 0
+
+
+class _UsageError(Exception):
+    """Bad usage found by a command (exit status 2)."""
+
+
 # ---- argument parsing ---------------------------------------------------------------
 
 def _parser():
@@ -351,6 +423,14 @@ def _parser():
     sp.add_argument("--duration", type=float, help="stop after this many seconds")
     sp.add_argument("--count", type=int, help="stop after this many samples")
     sp.add_argument("--plot", metavar="FILE.png", help="write a plot of position and speed")
+    sp = add("update", cmd_update, "send a firmware image over the bus (PROTOCOL.md §10); "
+             "the servo restarts into it")
+    sp.add_argument("file", metavar="FILE", help="the stamped image (tools/fwstamp.py)")
+    sp.add_argument("--no-check", action="store_true",
+                    help="send the file as it is: no image or model check on the host")
+    sp.add_argument("--retries", type=int, default=5,
+                    help="times a frame is sent again after NAK or silence (default 5)")
+    sp.set_defaults(prepare=prepare_update)
     sp = add("reset", cmd_reset, "factory reset (ID becomes 1)")
     sp.add_argument("--yes", action="store_true", help="really do it")
     return p
@@ -369,9 +449,14 @@ def main(argv=None):
               "/dev/ttyUSB0, or set SERVOBUS_PORT" % PROG, file=sys.stderr)
         return 2
     try:
+        if getattr(args, "prepare", None):
+            args.prepare(args)
         with Bus(port, baud=getattr(args, "baud", 9600),
                  timeout=getattr(args, "timeout", None)) as bus:
             return args.func(bus, args)
+    except (I.ImageError, _UsageError) as e:
+        print("%s: %s" % (PROG, e), file=sys.stderr)
+        return 2
     except ServoBusError as e:
         print("%s: %s" % (PROG, e), file=sys.stderr)
         return 1

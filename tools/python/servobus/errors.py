@@ -89,3 +89,23 @@ def status_error(servo_id, err, what, hint="", params=b"", motion=False):
                              "noise on the wire: check wiring, termination (register 20) "
                              "and that the host and the servo use the same baud rate")
     return ServoFault(servo_id, err, what, hint, params)
+
+
+class UpdateError(ServoBusError):
+    """A firmware update (§10) that did not complete. Attributes: servo_id, step (the
+    frame concerned: "enter", "header block", "data block 3", "end of file", "end of
+    batch", "restart")."""
+
+    def __init__(self, message, servo_id=None, step=None):
+        super().__init__(message)
+        self.servo_id = servo_id
+        self.step = step
+
+
+class UpdateRefused(UpdateError):
+    """The servo answered CAN (0x18): it abandoned the update (image too large, for
+    another model, failed its CRC check, flash error) and keeps its running image."""
+
+
+class UpdateTimeout(UpdateError, BusTimeout):
+    """No answer to an update frame after every retry."""

@@ -148,3 +148,100 @@ def byte_time(baud):
 
 def u16(value):
     return bytes([value & 0xFF, (value >> 8) & 0xFF])
+
+
+# ---- firmware update (§10): YMODEM blocks in CUSTOM frames, sub-commands 0xFC/0xFE ----
+
+UPDATE_ENTER = 0xFC
+UPDATE_BLOCK = 0xFE
+UPDATE_HEADER = 0x01
+UPDATE_DATA = 0x02
+UPDATE_EOF = 0x04
+ACK = 0x06
+NAK = 0x15
+CAN = 0x18
+READY = 0x43  # 'C'
+UPDATE_HEADER_DATA = 128
+UPDATE_BLOCK_DATA = 1024
+# Answers: enter 'C' (LEN 3), header and end of file ACK 'C' (LEN 4), data block and end
+# of batch ACK (LEN 3); NAK or CAN in place of the first byte (LEN 3).
+UPDATE_ANSWER_BYTES = 8
+
+
+def crc16_xmodem(data, crc=0):
+    """CRC-16/XMODEM: polynomial 0x1021, initial 0, MSB first, no final xor
+    (b"123456789" -> 0x31C3)."""
+    for byte in bytes(data):
+        crc ^= byte << 8
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0x1021) if crc & 0x8000 else (crc << 1)
+            crc &= 0xFFFF
+    return crc
+
+
+def _frame(body):
+    return HEADER + body + bytes([checksum(body)])
+
+
+def _check_id(servo_id):
+    if not 0 <= servo_id <= ID_MAX:
+        raise ValueError("the update addresses one servo: ID %r is not 0-253" % (servo_id,))
+
+
+def update_enter(servo_id):
+    """`D5 5D ID 03 FF FC CHK`: enter update mode (answer 'C')."""
+    _check_id(servo_id)
+    return _frame(bytes([servo_id, 3, CUSTOM, UPDATE_ENTER]))
+
+
+def _block(servo_id, btype, number, data, size, len_byte):
+    data = bytes(data)
+    if len(data) > size:
+        raise ValueError("a block carries %d bytes, not %d" % (size, len(data)))
+    data += (b"\0" if size == UPDATE_HEADER_DATA else b"\xFF") * (size - len(data))
+    crc = crc16_xmodem(data)
+    number &= 0xFF
+    return _frame(bytes([servo_id, len_byte, CUSTOM, UPDATE_BLOCK, btype, number,
+                         ~number & 0xFF]) + data + bytes([crc >> 8, crc & 0xFF]))
+
+
+def update_header(servo_id, length):
+    """Header block (type 1, number 0; LEN 0x88): 128 bytes, the first four the image
+    length big-endian, the rest 0. Length 0 gives the end-of-batch block (all zero)."""
+    _check_id(servo_id)
+    if not 0 <= length <= 0xFFFFFFFF:
+        raise ValueError("image length %r does not fit in 32 bits" % (length,))
+    return _block(servo_id, UPDATE_HEADER, 0, length.to_bytes(4, "big"),
+                  UPDATE_HEADER_DATA, 0x88)
+
+
+def update_data(servo_id, number, data):
+    """Data block number (1, 2, ...; LEN 0xFF, the frame is fixed at 1031 bytes after
+    LEN): 1024 bytes, a short last block padded with 0xFF."""
+    _check_id(servo_id)
+    return _block(servo_id, UPDATE_DATA, number, data, UPDATE_BLOCK_DATA, 0xFF)
+
+
+def update_eof(servo_id):
+    """`D5 5D ID 04 FF FE 04 CHK`: end of file."""
+    _check_id(servo_id)
+    return _frame(bytes([servo_id, 4, CUSTOM, UPDATE_BLOCK, UPDATE_EOF]))
+
+
+def update_end(servo_id):
+    """End of batch: a header block whose 128 bytes are all 0."""
+    return update_header(servo_id, 0)
+
+
+def update_frames(servo_id, image):
+    """Every frame of one update, in order: (step name, frame, data bytes it carries)."""
+    image = bytes(image)
+    out = [("enter", update_enter(servo_id), 0),
+           ("header block", update_header(servo_id, len(image)), 0)]
+    for i in range(0, len(image), UPDATE_BLOCK_DATA):
+        n = i // UPDATE_BLOCK_DATA + 1
+        chunk = image[i:i + UPDATE_BLOCK_DATA]
+        out.append(("data block %d" % n, update_data(servo_id, n, chunk), len(chunk)))
+    out.append(("end of file", update_eof(servo_id), 0))
+    out.append(("end of batch", update_end(servo_id), 0))
+    return out
