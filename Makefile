@@ -43,14 +43,14 @@ fuzz: deps
 # update file), servo-boot-<board>.* (the bootloader), servo-<board>-full.{bin,hex} (both,
 # for a first flashing). The build fails past a budget.
 size_table = awk '{ printf "%-12s %7d  %6.1f%%    %6d  %6.1f%%    (%d + %d + %d + %d)\n", \
-	$$1, $$2, 100 * $$2 / $(1), $$3, 100 * $$3 / 6144, $$4, $$5, $$6, $$7 }'
+	$$1, $$2, 100 * $$2 / $$8, $$3, 100 * $$3 / $$9, $$4, $$5, $$6, $$7 }'
 firmware: deps
 	@for b in $(BOARDS); do $(call fw_build,$$b) || exit 1; done
 	@echo
 	@echo "application  flash B  of 27 KiB-4  RAM B  of 6 KiB   (vectors + code/data + bss + stack)"
-	@for b in $(BOARDS); do cat build/stm32-$$b/servo-$$b.size; done | $(call size_table,27644)
+	@for b in $(BOARDS); do cat build/stm32-$$b/servo-$$b.size; done | $(size_table)
 	@echo "bootloader   flash B  of 6 KiB"
-	@for b in $(BOARDS); do cat build/stm32-$$b/servo-boot-$$b.size; done | $(call size_table,6144)
+	@for b in $(BOARDS); do cat build/stm32-$$b/servo-boot-$$b.size; done | $(size_table)
 	@echo
 	@echo "worst-case stack per entry point (-fstack-usage + call graph; budget 75% of reserved)"
 	@for b in $(BOARDS); do echo "$$b application"; cat build/stm32-$$b/servo-$$b.stack; \

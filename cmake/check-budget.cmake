@@ -3,7 +3,7 @@
 # application 27 KiB - 4 flash (its slot less the install mark), the bootloader 6 KiB; 6 KiB RAM including the stack for both,
 # so they fit 8 KiB-RAM parts). Also fails if the heap got linked in. Prints the figures
 # and writes one row of make firmware's size table to OUT:
-#   ROW flash ram vectors code+data bss stack
+#   ROW flash ram vectors code+data bss stack flash-budget ram-budget
 # Usage: cmake -DNM=arm-none-eabi-nm -DELF=x.elf -DNAME=servo-arm -DROW=arm -DOUT=x.size
 #              [-DGOAL_FLASH=16384] -P check-budget.cmake
 execute_process(COMMAND ${NM} ${ELF} OUTPUT_VARIABLE syms RESULT_VARIABLE rc)
@@ -53,7 +53,8 @@ endif()
 message(STATUS "${NAME}: flash ${flash} of ${budget_flash} B (${flash_pct}%)${goal}, "
                "RAM ${ram} of ${budget_ram} B (${ram_pct}%: "
                "vectors ${vectors}, code+data ${data}, bss ${bss}, stack ${stack})")
-file(WRITE ${OUT} "${ROW} ${flash} ${ram} ${vectors} ${data} ${bss} ${stack}\n")
+file(WRITE ${OUT} "${ROW} ${flash} ${ram} ${vectors} ${data} ${bss} ${stack} "
+                "${budget_flash} ${budget_ram}\n")
 if(flash GREATER budget_flash)
     message(FATAL_ERROR "${NAME}: flash ${flash} B over the ${budget_flash} B budget")
 endif()

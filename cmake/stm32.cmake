@@ -18,8 +18,11 @@ string(TOUPPER ${BOARD} board_upper)
 set(SERVO_MODEL BOARD_MODEL_${board_upper}) # include/board.h
 set(SERVO_LDDIR ${CMAKE_SOURCE_DIR}/board)
 set(SERVO_LDPARTS ${SERVO_LDDIR}/${BOARD_MCU}-memory.ld ${SERVO_LDDIR}/${BOARD_MCU}-sections.ld)
-set(SERVO_APP_ORIGIN 0x08001800)  # board/stm32f103x8-memory.ld
+# The flash map of board/stm32f103x8-memory.ld, for the steps after the link.
 set(SERVO_BOOT_ORIGIN 0x08000000)
+set(SERVO_BOOT_BYTES 6144)
+set(SERVO_APP_ORIGIN 0x08001800)
+set(SERVO_APP_MAX_BYTES 27644) # image.h IMAGE_MAX_BYTES: the 27 KiB slot less the mark
 
 # -fstack-usage: each function's frame (.su beside its object) for stack_report.py.
 foreach(part bus motion)
@@ -135,7 +138,7 @@ add_custom_command(TARGET ${boot}.elf POST_BUILD
 set(full ${CMAKE_BINARY_DIR}/${image}-full)
 add_custom_command(OUTPUT ${full}.bin ${full}.hex
     COMMAND ${SERVO_PYTHON3} ${CMAKE_SOURCE_DIR}/hal/stm32f1/full_image.py
-            ${CMAKE_BINARY_DIR}/${boot}.bin ${CMAKE_BINARY_DIR}/${image}.bin ${full}.bin
+            ${SERVO_BOOT_BYTES} ${SERVO_APP_MAX_BYTES} ${CMAKE_BINARY_DIR}/${boot}.bin ${CMAKE_BINARY_DIR}/${image}.bin ${full}.bin
     COMMAND ${CMAKE_OBJCOPY} -I binary -O ihex --change-addresses ${SERVO_BOOT_ORIGIN}
             ${full}.bin ${full}.hex
     DEPENDS ${image}.elf ${boot}.elf ${CMAKE_SOURCE_DIR}/hal/stm32f1/full_image.py

@@ -24,7 +24,6 @@ import qemu_ping as q  # noqa: E402
 
 ENTER = bytes.fromhex("D55D0103FFFCFF")
 ENTER_ANSWER = bytes.fromhex("D55D0103004347")
-APP_OFFSET = 6 * 1024   # the application slot in the combined image
 CORRUPT_AT = 0x200      # in the application: code, past the vectors and the info block
 SILENCE_S = 1.0         # PING sent this long without an answer
 
@@ -45,13 +44,15 @@ def session(sock, proc):
 
 def main():
     image, elf = q.arguments("qemu_boot.py servo-arm-full.bin servo-arm.elf")
+    (app_start,) = q.symbols(elf, "_app_start")
+    app_offset = app_start - q.FLASH_BASE  # the application slot in the combined image
     with open(image, "rb") as f:
         data = bytearray(f.read())
-    if len(data) <= APP_OFFSET + CORRUPT_AT:
+    if len(data) <= app_offset + CORRUPT_AT:
         q.fail(f"{image}: {len(data)} B, no application after the bootloader")
-    data[APP_OFFSET + CORRUPT_AT] ^= 0x01
+    data[app_offset + CORRUPT_AT] ^= 0x01
     q.say(f"flipped bit 0 of the application's byte 0x{CORRUPT_AT:x} "
-          f"(flash 0x{q.FLASH_BASE + APP_OFFSET + CORRUPT_AT:08x})")
+          f"(flash 0x{q.FLASH_BASE + app_offset + CORRUPT_AT:08x})")
     with tempfile.TemporaryDirectory() as workdir:
         broken = os.path.join(workdir, "broken-full.bin")
         with open(broken, "wb") as f:
