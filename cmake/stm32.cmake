@@ -1,9 +1,9 @@
 # Cross build for the STM32F103: the firmware of one board (BOARD, board/<name>/) on the
 # port in hal/stm32f1/, as three images in the build directory:
 #   servo-<board>.elf/.bin/.hex          the application, linked for the application slot
-#                                        (0x08001800); the .bin, stamped by
+#                                        (0x08002000); the .bin, stamped by
 #                                        tools/fwstamp.py, is the update file (§10)
-#   servo-boot-<board>.elf/.bin/.hex     the bootloader (0x08000000, 6 KiB)
+#   servo-boot-<board>.elf/.bin/.hex     the bootloader (0x08000000, 8 KiB region)
 #   servo-<board>-full.bin/.hex          both, for a first flashing (make flash)
 # Floating point is banned from the core and the port: -mgeneral-regs-only makes any float
 # arithmetic a compile error, and the link checks below fail the build if a soft-float
@@ -20,9 +20,9 @@ set(SERVO_LDDIR ${CMAKE_SOURCE_DIR}/board)
 set(SERVO_LDPARTS ${SERVO_LDDIR}/${BOARD_MCU}-memory.ld ${SERVO_LDDIR}/${BOARD_MCU}-sections.ld)
 # The flash map of board/stm32f103x8-memory.ld, for the steps after the link.
 set(SERVO_BOOT_ORIGIN 0x08000000)
-set(SERVO_BOOT_BYTES 6144)
-set(SERVO_APP_ORIGIN 0x08001800)
-set(SERVO_APP_MAX_BYTES 27644) # image.h IMAGE_MAX_BYTES: the 27 KiB slot less the mark
+set(SERVO_BOOT_BYTES 8192)
+set(SERVO_APP_ORIGIN 0x08002000)
+set(SERVO_APP_MAX_BYTES 26620) # image.h IMAGE_MAX_BYTES: the 26 KiB slot less the mark
 
 # -fstack-usage: each function's frame (.su beside its object) for stack_report.py.
 foreach(part bus motion)
@@ -133,7 +133,7 @@ add_custom_command(TARGET ${boot}.elf POST_BUILD
     BYPRODUCTS ${CMAKE_BINARY_DIR}/${boot}.bin ${CMAKE_BINARY_DIR}/${boot}.hex
     VERBATIM)
 
-# ---- First flashing: the bootloader padded with 0xFF to 6 KiB, then the stamped
+# ---- First flashing: the bootloader padded with 0xFF to 8 KiB, then the stamped
 # application (what make flash writes at 0x08000000, and what the QEMU tests boot) ----
 set(full ${CMAKE_BINARY_DIR}/${image}-full)
 add_custom_command(OUTPUT ${full}.bin ${full}.hex

@@ -41,14 +41,14 @@ void hal_irq_restore(struct hal *h, uint32_t state);
  *   pages 0 .. HAL_FLASH_PAGES-1          the persistent store (store.c)
  *   HAL_PAGE_APP .. +HAL_SLOT_PAGES-1     the application slot: the image that runs
  *   HAL_PAGE_STAGING .. +HAL_SLOT_PAGES-1 the staging slot: where an update arrives
- * (STM32F103x8, 64 KiB: bootloader 6 KiB at 0x08000000, application 27 KiB at
- * 0x08001800, staging 27 KiB at 0x08008400, store 4 KiB at 0x0800F000.)
+ * (STM32F103x8, 64 KiB: bootloader 8 KiB at 0x08000000, application 26 KiB at
+ * 0x08002000, staging 26 KiB at 0x08008800, store 4 KiB at 0x0800F000.)
  * Erased flash reads 0xFF; programming only clears bits, one aligned half-word at a time.
  * Program and erase may stall the CPU (tens of ms for an erase); main loop only.
  * Both return false if the operation failed (the store then treats the page as bad). */
 #define HAL_FLASH_PAGE_BYTES 1024u
 #define HAL_FLASH_PAGES 4u
-#define HAL_SLOT_PAGES 27u
+#define HAL_SLOT_PAGES 26u
 #define HAL_PAGE_APP HAL_FLASH_PAGES
 #define HAL_PAGE_STAGING (HAL_PAGE_APP + HAL_SLOT_PAGES)
 #define HAL_PAGES_ALL (HAL_PAGE_STAGING + HAL_SLOT_PAGES)

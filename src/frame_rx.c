@@ -89,7 +89,9 @@ static bool parser_to_block(struct frame_rx *rx, struct frame_parser *p)
         return false;
     }
     rx->block_busy = 1;
-    memcpy(rx->block.buf, rx->slot[p->slot].buf, p->pos);
+    /* A loop, not memcpy: this runs in the interrupt, from RAM (memcpy is in flash). */
+    for (uint16_t i = 0; i < p->pos; i++)
+        rx->block.buf[i] = rx->slot[p->slot].buf[i];
     slot_drop(rx, p->slot);
     p->slot = FRAME_BLOCK;
     p->need = FRAME_BLOCK_BYTES;

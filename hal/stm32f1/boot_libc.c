@@ -1,5 +1,5 @@
 /* boot_libc.c - memcpy, memset and memcmp for the bootloader only: byte loops of a few
- * bytes each in place of newlib-nano's (about 490 B of its 6 KiB). Speed does not matter
+ * bytes each in place of newlib-nano's (about 490 B of a 6 KiB target). Speed does not matter
  * there: the largest copy is the 1.5 KiB RAM image at reset. Built with
  * -fno-tree-loop-distribute-patterns so GCC does not turn the loops back into calls. */
 #include <string.h>

@@ -1,4 +1,4 @@
-/* boot_main.c - the bootloader (board/stm32f103x8-boot.ld, 6 KiB at the reset address).
+/* boot_main.c - the bootloader (board/stm32f103x8-boot.ld, 8 KiB region at the reset address).
  *
  * At reset, on the reset clock (HSI 8 MHz) and with no peripheral touched, boot_install()
  * (boot.h) installs a verified update waiting in the staging slot and says whether the

@@ -4,7 +4,7 @@
  *   HAL_PAGE_APP .. HAL_PAGES_ALL-1  the application slot then the staging slot, which
  *                                    touch: page HAL_PAGE_APP + n is _app_start + n KiB
  * Any other page number fails (a null view, false for erase and program). The
- * bootloader's own 6 KiB are never among them. The application (built without
+ * bootloader's own 8 KiB are never among them. The application (built without
  * SERVO_BOOTLOADER) may not erase or program its own slot, only the bootloader installs
  * into it.
  *
@@ -17,8 +17,8 @@
 _Static_assert(HAL_FLASH_PAGE_BYTES == 1024u, "STM32F103x8/xB pages are 1 KiB");
 _Static_assert(HAL_FLASH_PAGES * HAL_FLASH_PAGE_BYTES == 4096u,
                "the linker script reserves 4 KiB (STORE) for the store");
-_Static_assert(HAL_SLOT_PAGES * HAL_FLASH_PAGE_BYTES == 27u * 1024u,
-               "the linker script's slots (APP, STAGING) are 27 KiB each");
+_Static_assert(HAL_SLOT_PAGES * HAL_FLASH_PAGE_BYTES == 26u * 1024u,
+               "the linker script's slots (APP, STAGING) are 26 KiB each");
 _Static_assert(HAL_PAGE_APP == HAL_FLASH_PAGES && HAL_PAGES_ALL <= 256u,
                "page numbers: the store, then both slots, in a uint8_t");
 

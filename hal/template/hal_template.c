@@ -88,7 +88,7 @@ void hal_irq_restore(struct hal *h, uint32_t state)
  * there) and the staging slot (HAL_PAGE_STAGING: where an update arrives). The store's
  * pages are reserved (the linker script keeps every image out of them) and survive a
  * firmware update. A page number outside these: return 0. With a bootloader (hal.h's
- * flash map on the STM32F103: bootloader 6 KiB, the two slots, the store), the
+ * flash map on the STM32F103: bootloader 8 KiB, the two slots, the store), the
  * bootloader's own flash is never among the pages. */
 const uint8_t *hal_flash_page(struct hal *h, uint8_t p)
 {

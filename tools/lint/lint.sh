@@ -27,7 +27,7 @@ verdict "$out/cppcheck.log"
 
 step "cppcheck: hal/stm32f1/ (arm board)"
 cppcheck "${common[@]}" --enable=warning,style,performance,portability \
-    -Iinclude -Ihal -Ihal/stm32f1 -Iboard/arm -DSERVO_BOARD=board_arm hal/stm32f1 \
+    -Iinclude -Ihal -Ihal/stm32f1 -Iboard/arm -DSERVO_BOARD=board_arm -DSERVO_MODEL=BOARD_MODEL_ARM hal/stm32f1 \
     --template='{file}:{line}: {severity}: {message} [{id}]' 2>"$out/cppcheck-stm32.log"
 verdict "$out/cppcheck-stm32.log"
 
