@@ -17,7 +17,8 @@ from .protocol import BROADCAST
 from .registers import REGISTERS, VARIANTS, register
 
 __all__ = [
-    "Bus", "Found", "HomingStatus", "UpdateStats", "BROADCAST", "REGISTERS", "VARIANTS", "register",
+    "Bus", "Found", "HomingStatus", "UpdateStats", "BROADCAST", "REGISTERS", "VARIANTS",
+    "register",
     "ServoBusError", "BusTimeout", "ProtocolError", "RangeError", "UnknownRegister",
     "IdTaken", "StatusError", "InstructionError", "MotionRefused", "ChecksumError",
     "ServoFault", "UpdateError", "UpdateRefused", "UpdateTimeout", "ImageError",

@@ -12,7 +12,8 @@ from .registers import (BAUD_RATES, REGISTERS, TABLE_SIZE, register, variant_by_
 from .transport import open_transport
 
 Found = namedtuple("Found", "id baud err")
-UpdateStats = namedtuple("UpdateStats", "frames resent bytes_out bytes_in transfer_s restart_s")
+UpdateStats = namedtuple("UpdateStats",
+                         "frames resent bytes_out bytes_in transfer_s restart_s")
 HomingStatus = namedtuple("HomingStatus", "requested state text")
 
 HOMING_STATES = {0: "never run", 1: "running", 2: "done", 3: "failed or aborted"}
@@ -37,7 +38,7 @@ _CAN_REASONS = {
 # back a 1 KiB flash page; the CRC-32 of the whole image at the end of the batch.
 UPDATE_WORK_S = 0.2
 # After the end of batch: seconds to wait for the restarted servo (the bootloader copies
-# the image, up to 27 pages, before starting it).
+# the image, up to 26 pages, before starting it).
 RESTART_TIMEOUT_S = 10.0
 
 _WRITE_HINT = ("a value out of range, a read-only, reserved or not-applicable register, "
@@ -540,7 +541,7 @@ class Bus:
         expect_version = None
         if check:
             info = I.validate(image)
-            if self.present(servo_id):
+            if self.present(servo_id) or self.present(servo_id):  # a lost PING: once more
                 I.validate(image, self.read(servo_id, "model_number"))
             else:
                 notify("ID %d does not answer PING at %d baud: assuming it waits in its "

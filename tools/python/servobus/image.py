@@ -22,7 +22,12 @@ INFO_OFFSET = 0x100
 INFO_BYTES = 16
 MAGIC = b"SRVI"
 MIN_BYTES = INFO_OFFSET + INFO_BYTES   # 0x110
-MAX_BYTES = 27 * 1024                  # the application slot: 27 pages of 1 KiB
+# The flash slots (hal/hal.h): 26 pages of 1 KiB; the staging slot's last 4 bytes hold
+# the install mark, so an image has 4 bytes less (IMAGE_MAX_BYTES in include/image.h;
+# tests/test_update.py checks these against the headers).
+PAGE_BYTES = 1024
+SLOT_PAGES = 26
+MAX_BYTES = SLOT_PAGES * PAGE_BYTES - 4
 OFF_LENGTH = INFO_OFFSET + 4
 OFF_CRC = INFO_OFFSET + 8
 _INFO = struct.Struct("<4sIIHBB")
@@ -100,7 +105,7 @@ def validate(data, model=None):
     the ImageInfo, or ImageError saying what is wrong."""
     info = parse(data)
     if info.size > MAX_BYTES:
-        raise ImageError("image too large: %d bytes, the application slot holds %d" %
+        raise ImageError("image too large: %d bytes, an image has %d at most" %
                          (info.size, MAX_BYTES))
     if info.length != info.size:
         if info.length > info.size:
@@ -126,7 +131,7 @@ def stamp(data):
     data = bytearray(data)
     parse(data)  # magic and minimum size
     if len(data) > MAX_BYTES:
-        raise ImageError("image too large: %d bytes, the application slot holds %d" %
+        raise ImageError("image too large: %d bytes, an image has %d at most" %
                          (len(data), MAX_BYTES))
     struct.pack_into("<I", data, OFF_LENGTH, len(data))
     struct.pack_into("<I", data, OFF_CRC, image_crc(data))

@@ -4,6 +4,7 @@ end to end against servo-sim."""
 
 import os
 import shutil
+import signal
 import socket
 import struct
 import subprocess
@@ -27,6 +28,32 @@ FWSTAMP = os.path.join(REPO, "tools", "fwstamp.py")
 
 # ---- the image module and fwstamp.py ------------------------------------------------
 
+def _c_defines(*paths):
+    """The integer #defines of C headers, evaluated in order (simple expressions)."""
+    import re
+    values = {}
+    for path in paths:
+        with open(os.path.join(REPO, path)) as f:
+            for name, expr in re.findall(r"^#define (\w+) ([^/\n]+)", f.read(), re.M):
+                expr = re.sub(r"(\d+|0x[0-9A-Fa-f]+)u\b", r"\1", expr.strip())
+                try:
+                    values[name] = eval(expr, {}, dict(values))  # noqa: S307 (own headers)
+                except Exception:
+                    pass
+    return values
+
+
+def test_image_format_matches_the_firmware_headers():
+    c = _c_defines("hal/hal.h", "include/image.h")
+    assert I.INFO_OFFSET == c["IMAGE_INFO_OFFSET"] and I.INFO_BYTES == c["IMAGE_INFO_BYTES"]
+    assert I.MIN_BYTES == c["IMAGE_MIN_BYTES"] and I.MAX_BYTES == c["IMAGE_MAX_BYTES"]
+    assert (I.PAGE_BYTES, I.SLOT_PAGES) == (c["HAL_FLASH_PAGE_BYTES"], c["HAL_SLOT_PAGES"])
+    assert I.MAGIC == c["IMAGE_MAGIC"].to_bytes(4, "little")
+    assert (I.OFF_LENGTH, I.OFF_CRC) == (I.INFO_OFFSET + c["IMAGE_OFF_LENGTH"],
+                                         I.INFO_OFFSET + c["IMAGE_OFF_CRC"])
+    assert APP_SLOT == c["HAL_PAGE_APP"] * c["HAL_FLASH_PAGE_BYTES"]
+
+
 def test_model_numbers_match_the_register_table():
     assert I.MODELS == {v.name: v.model_number for v in VARIANTS.values()}
 
@@ -41,7 +68,7 @@ def test_build_makes_a_valid_image():
     assert crc == zlib.crc32(blank) and (length, model, version, reserved) == (16384, ARM, 7, 0)
     assert I.build(16384, 7, ARM, seed=3) == data != I.build(16384, 7, ARM, seed=4)
     assert len(I.build(I.MIN_BYTES, 1, ARM)) == 0x110
-    assert len(I.build(I.MAX_BYTES, 1, ARM)) == 27648
+    assert len(I.build(I.MAX_BYTES, 1, ARM)) == I.MAX_BYTES
     for bad in (I.MIN_BYTES - 1, I.MAX_BYTES + 1):
         with pytest.raises(ImageError):
             I.build(bad, 1, ARM)
@@ -60,7 +87,8 @@ def _corrupt(data, offset=5000):
     (lambda d: d + b"\xFF" * 16, ["length mismatch", "fwstamp"]),
     (lambda d: d[:0x100] + b"XRVI" + d[0x104:], ["no magic", "0x100"]),
     (lambda d: d[:0x80], ["too short"]),
-    (lambda d: I.stamp(d + bytes(27648 - len(d))) + b"\0", ["too large", "27648"]),
+    (lambda d: I.stamp(d + bytes(I.MAX_BYTES - len(d))) + b"\0",
+     ["too large", str(I.MAX_BYTES)]),
 ])
 def test_validate_says_what_is_wrong(mangle, words):
     data = mangle(I.build(16384, 7, ARM))
@@ -411,7 +439,7 @@ def test_bad_crc_is_refused_by_the_servo(sim_factory):
 @pytest.mark.parametrize("make,step", [
     (lambda: I.build(16384, 7, FOOT), "data block 1"),  # another board's image
     (lambda: I.build(16384, 7, ARM)[:12000], None),      # truncated
-    (lambda: I.build(I.MAX_BYTES, 7, ARM) + bytes(1024), "header block"),  # too large
+    (lambda: I.build(I.MAX_BYTES, 7, ARM) + bytes(1), "header block"),  # too large
 ])
 def test_the_servo_refuses_what_it_cannot_take(sim_factory, make, step):
     sim = sim_factory("1:arm")
@@ -458,3 +486,43 @@ def test_servoctl_update(sim_factory, tmp_path):
     assert rc == 2 and "the servo is model 0x5204 (wrist)" in err
     rc, out, _ = servoctl("--port", sim.url, "--id", "3", "get", "firmware_version", "--raw")
     assert out.strip() == "5"
+
+
+APP_SLOT = 4 * 1024  # byte offset of the application slot in a --state-dir flash file
+
+
+def test_a_cut_during_the_update_keeps_the_old_firmware(sim_factory, tmp_path):
+    state = tmp_path / "state"
+    sim = sim_factory("1:arm", state_dir=state)
+
+    def cut(done, total, nbytes, total_bytes):
+        if done == 8:
+            sim.stop(signal.SIGKILL)  # a power cut half-way through the data blocks
+
+    with Bus(sim.url) as bus:
+        with pytest.raises(ServoBusError):
+            bus.update(1, I.build(16384, 7, ARM), progress=cut, retries=1)
+    sim = sim_factory("1:arm", state_dir=state)
+    with Bus(sim.url) as bus:
+        assert bus.read(1, "firmware_version") == FACTORY_VERSION
+        assert bus.update(1, I.build(16384, 7, ARM)) == 7
+    sim.stop()
+    sim = sim_factory("1:arm", state_dir=state)  # the new image survives a power cycle
+    with Bus(sim.url) as bus:
+        assert bus.read(1, "firmware_version") == 7
+
+
+def test_a_servo_in_update_mode_is_updated(sim_factory, tmp_path):
+    state = tmp_path / "state"
+    sim_factory("2:foot", state_dir=state).stop()
+    flash = state / "servo-2-foot.flash"
+    data = bytearray(flash.read_bytes())
+    data[APP_SLOT + 5000] ^= 0xFF  # a damaged application: the bootloader stays in charge
+    flash.write_bytes(data)
+    sim = sim_factory("2:foot", state_dir=state)
+    with Bus(sim.url) as bus:
+        assert not bus.present(2)  # update mode answers only the update frames
+        notes = []
+        assert bus.update(2, I.build(9000, 4, FOOT), notify=notes.append) == 4
+        assert len(notes) == 1 and "bootloader" in notes[0]
+        assert bus.ping(2) == 0 and bus.read(2, "model_number") == FOOT
