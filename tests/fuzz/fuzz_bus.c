@@ -19,9 +19,14 @@
  *   other b    one data byte, 10 bit-times at the servo's baud rate
  * The main loop runs every POLL_US of virtual time; input past MAX_VIRTUAL_US is ignored.
  *
+ * The servo powers up as on the MCU (servo_power_on: factory image in the application
+ * slot, the bootloader's decision), and a restart it asks for (the end of a firmware
+ * update, hal_restart) is a power cycle.
+ *
  * Invariants (abort on violation, so libFuzzer keeps the input):
  *   1. the identity registers (read-only, EEPROM: model number, firmware version) never
- *      change; every writable register is within its descriptor's range; CW <= CCW;
+ *      change while the image runs (an update changes the version only across a
+ *      restart); every writable register is within its descriptor's range; CW <= CCW;
  *   2. no answer is scheduled for a broadcast frame other than PING;
  *   3. from power-up the motor stays off (bridge disabled, duty 0) until a frame with a
  *      good checksum other than PING or READ has been dispatched;
@@ -93,7 +98,8 @@ static void check_all(void)
 static void power_up(void)
 {
     hal_host_reboot(&hal);
-    servo_init(&servo, servo.board, &hal);
+    servo_power_on(&servo, servo.board, &hal);
+    factory[REG_FIRMWARE_VERSION] = servo.fw_version; /* an installed update's */
     motion_commanded = false;
     speed0_window = false;
 }
@@ -121,7 +127,7 @@ static void poll_once(void)
 {
     uint8_t tail = servo.rx.ready_tail;
     uint8_t my_id = servo.link.id;
-    servo_poll(&servo);
+    servo_step(&servo);
     if (servo.rx.ready_tail != tail) { /* dispatched */
         uint8_t e = servo.rx.ready[tail & (FRAME_READY - 1u)];
         const struct frame *f = e == FRAME_BLOCK ? 0 : &servo.rx.slot[e];
@@ -140,7 +146,7 @@ static void poll_once(void)
                 speed0_window = true;
         }
     }
-    if (!hal.flash.powered) /* a planned cut happened: the MCU goes down with it */
+    if (!hal.flash.powered || hal.restart_requested) /* a planned cut, or a restart */
         power_up();
     check_all();
 }
@@ -172,7 +178,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     const struct board *b = boards[data[0] % 5u];
     hal_host_init(&hal);
     hal_host_attach_board(&hal, b);
-    servo_init(&servo, b, &hal);
+    hal_host_program_factory(&hal, b);
+    servo_power_on(&servo, b, &hal);
     if (data[1]) {
         servo.regs.mem[REG_ID] = data[1] < PROTO_ID_BROADCAST ? data[1] : 1u;
         link_latch(&servo);

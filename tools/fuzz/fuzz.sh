@@ -9,7 +9,8 @@ cd "$(dirname "$0")/../.."
 seconds=${FUZZ_SECONDS:-600}
 out=build/fuzz
 mkdir -p "$out/corpus" "$out/findings" "$out/cov"
-srcs=(src/*.c board/boards.c hal/host/hal_host.c hal/host/flash_sim.c hal/host/motor_sim.c)
+srcs=(src/*.c board/boards.c hal/host/hal_host.c hal/host/flash_sim.c hal/host/motor_sim.c
+      hal/host/image_host.c)
 defs=(-DREGS_WITH_TEXT=1 -DSERVO_FW_VERSION=1 -Iinclude -Ihal -Ihal/host)
 
 clang -std=c11 -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
@@ -17,7 +18,7 @@ clang -std=c11 -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=
 
 echo "== libFuzzer: ${seconds} s on $(basename "$out")/fuzz_bus (seeds: tests/fuzz/corpus)"
 rc=0
-"$out/fuzz_bus" -max_total_time="$seconds" -max_len=4096 -timeout=20 -rss_limit_mb=2048 \
+"$out/fuzz_bus" -max_total_time="$seconds" -max_len=10000 -timeout=20 -rss_limit_mb=2048 \
     -print_final_stats=1 -artifact_prefix="$out/findings/" \
     "$out/corpus" tests/fuzz/corpus > "$out/fuzz.log" 2>&1 || rc=$?
 grep -E "^#[0-9]+ +(INITED|DONE)" "$out/fuzz.log" | tail -2 || true
