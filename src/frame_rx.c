@@ -1,4 +1,5 @@
 /* frame_rx.c - byte-at-a-time frame receiver and its ISR-to-main-loop queue. */
+#include <stddef.h>
 #include <string.h>
 
 #include "frame_rx.h"
@@ -260,12 +261,12 @@ static uint8_t oldest(struct frame_rx *rx)
 const struct frame *frame_rx_peek(struct frame_rx *rx)
 {
     uint8_t s = oldest(rx);
-    return s < FRAME_SLOTS ? &rx->slot[s] : 0;
+    return s < FRAME_SLOTS ? &rx->slot[s] : NULL;
 }
 
 const struct frame_block *frame_rx_peek_block(struct frame_rx *rx)
 {
-    return oldest(rx) == FRAME_BLOCK ? &rx->block : 0;
+    return oldest(rx) == FRAME_BLOCK ? &rx->block : NULL;
 }
 
 void frame_rx_release(struct frame_rx *rx)

@@ -1,6 +1,7 @@
 /* store.c - power-loss-safe emulated EEPROM on flash pages (layout in store.h). */
 #include <string.h>
 
+#include "crc.h"
 #include "hal.h"
 #include "proto.h"
 #include "store.h"
@@ -22,33 +23,21 @@ static uint16_t half_at(const uint8_t *page, uint16_t off)
     return proto_get16(&page[off]);
 }
 
-static uint32_t crc32_update(uint32_t crc, uint32_t v, uint8_t bytes)
-{
-    for (uint8_t i = 0; i < bytes; i++) {
-        crc ^= (v >> (8u * i)) & 0xFFu;
-        for (uint8_t k = 0; k < 8u; k++)
-            crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
-    }
-    return crc;
-}
-
 static uint32_t header_crc(uint32_t seq)
 {
-    return ~crc32_update(crc32_update(0xFFFFFFFFu, MAGIC, 2), seq, 4);
+    const uint8_t bytes[6] = {(uint8_t)MAGIC, (uint8_t)(MAGIC >> 8), (uint8_t)seq,
+                              (uint8_t)(seq >> 8), (uint8_t)(seq >> 16), (uint8_t)(seq >> 24)};
+    return ~crc32_update(CRC32_INIT, bytes, sizeof bytes);
 }
 
 /* Record check: CRC-16/CCITT of tag|addr, value and the page's sequence number, with
  * 0xFFFF (an unwritten half-word) mapped away so it never matches. */
 static uint16_t record_check(uint16_t head, uint16_t value, uint32_t seq)
 {
-    uint16_t crc = 0xFFFFu;
-    const uint32_t words[2] = {(uint32_t)head | ((uint32_t)value << 16), seq};
-    for (uint8_t w = 0; w < 2u; w++)
-        for (uint8_t i = 0; i < 4u; i++) {
-            crc ^= (uint16_t)(((words[w] >> (8u * i)) & 0xFFu) << 8);
-            for (uint8_t k = 0; k < 8u; k++)
-                crc = (uint16_t)(((uint32_t)crc << 1) ^ ((crc & 0x8000u) ? 0x1021u : 0u));
-        }
+    const uint8_t bytes[8] = {(uint8_t)head, (uint8_t)(head >> 8), (uint8_t)value,
+                              (uint8_t)(value >> 8), (uint8_t)seq, (uint8_t)(seq >> 8),
+                              (uint8_t)(seq >> 16), (uint8_t)(seq >> 24)};
+    uint16_t crc = crc16_update(0xFFFFu, bytes, sizeof bytes);
     return crc == ERASED ? 0x7FFFu : crc;
 }
 
