@@ -230,6 +230,16 @@ static bool app_holds(const uint8_t *img, uint32_t len)
 #define IMG_LEN (16u * 1024u + 300u) /* 17 blocks, the last one padded */
 static uint8_t img[IMAGE_MAX_BYTES + 1u];
 
+/* A factory-fresh servo, img built (len bytes, model, version, seed), a session entered
+ * and its header ACKed. */
+static void begin_session(uint32_t len, uint16_t model, uint8_t version, uint32_t seed)
+{
+    factory();
+    hal_host_image_build(img, len, model, version, seed);
+    send_enter(1);
+    expect_answer(wire, header_frame(wire, 1, len), 1, ACK_C, 2);
+}
+
 /* ---- tests ------------------------------------------------------------------------- */
 
 static void test_crc_check_values(void **state)
@@ -302,10 +312,7 @@ static void test_answered_whatever_status_level(void **state)
 static void test_nak_resend_and_repeat(void **state)
 {
     (void)state;
-    factory();
-    hal_host_image_build(img, 3000, arm->model_number, 3, 2);
-    send_enter(1);
-    expect_answer(wire, header_frame(wire, 1, 3000), 1, ACK_C, 2);
+    begin_session(3000, arm->model_number, 3, 2);
     uint16_t n = data_frame(wire, 1, img, 3000, 1);
     wire[100] ^= 0x10u; /* a data byte: CRC-16 and checksum both wrong */
     expect_answer(wire, n, 1, NAK, 1);
@@ -370,10 +377,7 @@ static void test_refuses_too_large(void **state)
 static void test_refuses_wrong_board(void **state)
 {
     (void)state;
-    factory();
-    hal_host_image_build(img, 3000, board_wrist.model_number, 4, 3);
-    send_enter(1);
-    expect_answer(wire, header_frame(wire, 1, 3000), 1, ACK_C, 2);
+    begin_session(3000, board_wrist.model_number, 4, 3);
     expect_answer(wire, data_frame(wire, 1, img, 3000, 1), 1, CAN, 1);
     assert_old_firmware_runs();
     /* The header's length and the image's own disagree. */
@@ -387,11 +391,8 @@ static void test_refuses_wrong_board(void **state)
 static void test_refuses_bad_crc(void **state)
 {
     (void)state;
-    factory();
-    hal_host_image_build(img, 3000, arm->model_number, 4, 3);
+    begin_session(3000, arm->model_number, 4, 3);
     img[2500] ^= 0x04u; /* arrives intact (block CRCs of these bytes), fails CRC-32 */
-    send_enter(1);
-    expect_answer(wire, header_frame(wire, 1, 3000), 1, ACK_C, 2);
     for (uint8_t b = 1; b <= 3u; b++)
         expect_answer(wire, data_frame(wire, 1, img, 3000, b), 1, ACK, 1);
     expect_answer(wire, eof_frame(wire, 1), 1, ACK_C, 2);
@@ -402,10 +403,7 @@ static void test_refuses_bad_crc(void **state)
 static void test_refuses_truncated(void **state)
 {
     (void)state;
-    factory();
-    hal_host_image_build(img, 3000, arm->model_number, 4, 3);
-    send_enter(1);
-    expect_answer(wire, header_frame(wire, 1, 3000), 1, ACK_C, 2);
+    begin_session(3000, arm->model_number, 4, 3);
     expect_answer(wire, data_frame(wire, 1, img, 3000, 1), 1, ACK, 1);
     expect_answer(wire, data_frame(wire, 1, img, 3000, 2), 1, ACK, 1);
     expect_answer(wire, eof_frame(wire, 1), 1, CAN, 1);
