@@ -111,7 +111,6 @@ add_executable(${boot}.elf ${SERVO_PORT_SOURCES}
     src/frame_rx.c
     src/link.c
     src/proto.c
-    src/regs.c
     src/store.c
     src/crc.c
     src/image.c
@@ -126,7 +125,7 @@ set_source_files_properties(hal/stm32f1/boot_libc.c PROPERTIES
 target_compile_definitions(${boot}.elf PRIVATE SERVO_BOOTLOADER SERVO_BOARD=board_${BOARD}
                            SERVO_MODEL=${SERVO_MODEL} SERVO_FW_VERSION=${SERVO_FW_VERSION})
 servo_link_and_check(${boot} ${SERVO_LDDIR}/${BOARD_MCU}-boot.ld
-    "${CMAKE_BINARY_DIR}/CMakeFiles/${boot}.elf.dir")
+    "${CMAKE_BINARY_DIR}/CMakeFiles/${boot}.elf.dir" -DGOAL_FLASH=6144)
 add_custom_command(TARGET ${boot}.elf POST_BUILD
     COMMAND ${CMAKE_OBJCOPY} -O binary $<TARGET_FILE:${boot}.elf> ${CMAKE_BINARY_DIR}/${boot}.bin
     COMMAND ${CMAKE_OBJCOPY} -O ihex $<TARGET_FILE:${boot}.elf> ${CMAKE_BINARY_DIR}/${boot}.hex

@@ -8,8 +8,18 @@
 
 #include "servo.h"
 
-/* Power-up in update mode: factory table with the stored EEPROM registers on top (for
- * the ID, baud and return delay), receiver empty. */
+/* The ID, baud code (register 4) and return delay update mode listens with: read
+ * through the store without the register table (store_read; the bootloader has no room
+ * for the table), each the stored value if there is a valid one, else the factory one.
+ * test_store checks after every simulated power cut that they equal what servo_init()
+ * puts in force. */
+struct loader_settings {
+    uint8_t id, baud_code, delay;
+};
+void loader_settings(struct hal *hal, const struct board *b, struct loader_settings *out);
+
+/* Power-up in update mode: the stored ID, baud and return delay in force, receiver
+ * empty. Reads the flash, never writes it. */
 void loader_init(struct servo *s, const struct board *b, struct hal *hal);
 
 /* Answer a §10 frame (buf = ID ... CHK, len bytes) if it is addressed to this servo:

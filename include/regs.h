@@ -9,6 +9,7 @@
 #include "board.h"
 
 #define REGS_SIZE 50u
+#define REGS_FACTORY_ID 1u /* register 3's factory value (PROTOCOL.md §5) */
 
 /* 1: compile register names and descriptions in (host tools and docs); the MCU image
  * leaves them out to save flash. */

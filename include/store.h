@@ -42,6 +42,20 @@ struct store {
     uint32_t retry_at;  /* a failed pre-erase is not retried before this time */
 };
 
+/* What the flash holds, read without the register table (the bootloader's update mode
+ * uses it alone, for ID, baud and return delay): the value each address last got from a
+ * complete record group of the newest committed page; bit a of found is set when
+ * address a has one. store_load() reads through the same code, then applies the table's
+ * rules (registers this variant keeps, ranges). */
+struct store_values {
+    uint64_t found;
+    uint16_t value[REGS_SIZE];
+};
+_Static_assert(REGS_SIZE <= 64u, "found is a 64-bit mask");
+
+/* Read the store (no writes) into out. */
+void store_read(struct hal *hal, struct store_values *out);
+
 /* Boot: read the flash (no writes) and put every committed EEPROM value into r, which
  * holds the factory table. Registers with nothing valid stored keep their factory value. */
 void store_load(struct store *st, struct hal *hal, struct regs *r, uint32_t now_us);

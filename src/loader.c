@@ -5,6 +5,7 @@
 #include "hal.h"
 #include "loader.h"
 #include "proto.h"
+#include "store.h"
 
 uint8_t loader_update_frame(struct servo *s, const uint8_t *buf, uint16_t len, bool chk_ok,
                             uint32_t end_us)
@@ -22,15 +23,41 @@ uint8_t loader_update_frame(struct servo *s, const uint8_t *buf, uint16_t len, b
     return out;
 }
 
+/* The value the store holds for address a; false if it holds none. */
+static bool stored_value(const struct store_values *v, uint8_t a, uint16_t *out)
+{
+    *out = v->value[a];
+    return ((v->found >> a) & 1u) != 0u;
+}
+
+void loader_settings(struct hal *hal, const struct board *b, struct loader_settings *out)
+{
+    struct store_values v;
+    uint16_t x;
+    store_read(hal, &v);
+    /* The table's ranges, which test_regs ties to these rules: ID 0..PROTO_ID_MAX, a
+     * baud code link_baud() knows, any 8-bit delay. */
+    out->id = stored_value(&v, REG_ID, &x) && x <= PROTO_ID_MAX ? (uint8_t)x : REGS_FACTORY_ID;
+    out->baud_code = stored_value(&v, REG_BAUD_RATE, &x) && x <= 0xFFu &&
+                             link_baud(b, (uint8_t)x) != 0u
+                         ? (uint8_t)x
+                         : 0u;
+    out->delay = stored_value(&v, REG_RETURN_DELAY, &x) && x <= 0xFFu ? (uint8_t)x
+                                                                       : b->return_delay;
+}
+
 void loader_init(struct servo *s, const struct board *b, struct hal *hal)
 {
+    struct loader_settings set;
     memset(s, 0, sizeof *s);
     s->hal = hal;
     s->board = b;
     s->in_loader = 1;
-    regs_init(&s->regs, b);
-    store_load(&s->store, hal, &s->regs, hal_clock_us(hal));
-    frame_rx_init(&s->rx, link_baud(b, s->regs.mem[REG_BAUD_RATE]));
+    loader_settings(hal, b, &set);
+    s->regs.mem[REG_ID] = set.id;
+    s->regs.mem[REG_BAUD_RATE] = set.baud_code;
+    s->regs.mem[REG_RETURN_DELAY] = set.delay;
+    frame_rx_init(&s->rx, link_baud(b, set.baud_code));
     link_latch(s);
 }
 
@@ -49,10 +76,13 @@ void loader_poll(struct servo *s)
     (void)update_active(&s->update, now);
     const struct frame *f = frame_rx_peek(&s->rx);
     const struct frame_block *blk = frame_rx_peek_block(&s->rx);
-    if (f && update_is_frame(f->buf, f->len))
-        (void)loader_update_frame(s, f->buf, f->len, f->status == FRAME_OK, f->end_us);
-    else if (blk)
-        (void)loader_update_frame(s, blk->buf, blk->len, blk->status == FRAME_OK, blk->end_us);
-    if (f || blk)
-        frame_rx_release(&s->rx);
+    if (!f && !blk)
+        return;
+    /* Both have the same fields; update mode answers only §10 frames. */
+    const uint8_t *buf = f ? f->buf : blk->buf;
+    uint16_t len = f ? f->len : blk->len;
+    if (update_is_frame(buf, len))
+        (void)loader_update_frame(s, buf, len, (f ? f->status : blk->status) == FRAME_OK,
+                                  f ? f->end_us : blk->end_us);
+    frame_rx_release(&s->rx);
 }

@@ -27,7 +27,7 @@ const struct reg_desc regs_table[REGS_SIZE] = {
         TEXT("model_number", "Model number of the board.")},
     [REG_FIRMWARE_VERSION] = {1, R, EE, REG_V_ALL, REG_DEF_FIRMWARE, REG_UNIT_NONE, 0, 0, 0, 0xFF
         TEXT("firmware_version", "Firmware version of the running image.")},
-    [REG_ID] = {1, RW, EE, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, 1, 0, 253
+    [REG_ID] = {1, RW, EE, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, REGS_FACTORY_ID, 0, PROTO_ID_MAX
         TEXT("id", "Bus ID. Takes effect after the answer to the write has been sent.")},
     [REG_BAUD_RATE] = {1, RW, EE, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, 0, 0, 10
         TEXT("baud_rate", "Baud rate code (0 = the variant's default, see the baud table). "

@@ -75,11 +75,12 @@ static bool slot_blank(const uint8_t *page, uint16_t off)
            half_at(page, off + 4u) == ERASED;
 }
 
-/* Replay the records of the active page into saved[]: complete groups only, in order.
- * Leaves st->next at the first blank slot. */
-static void replay(struct store *st, const struct board *b, const uint8_t *page)
+/* Read the records of a committed page: complete groups only, in order, each address
+ * keeping the last value a complete group gave it. Returns the offset of the first
+ * blank slot (where the next record goes). Table-free: the bootloader uses it alone. */
+static uint16_t scan(const uint8_t *page, uint32_t seq, struct store_values *v)
 {
-    uint8_t group[REGS_SIZE];
+    struct store_values group = *v;
     bool in_group = false;
     uint16_t off = STORE_HEADER_BYTES;
     for (; off + STORE_RECORD_BYTES <= HAL_FLASH_PAGE_BYTES; off += STORE_RECORD_BYTES) {
@@ -87,30 +88,50 @@ static void replay(struct store *st, const struct board *b, const uint8_t *page)
             break;
         uint16_t head = half_at(page, off), value = half_at(page, off + 2u);
         uint8_t tag = (uint8_t)(head >> 8), addr = (uint8_t)head;
-        bool valid = half_at(page, off + 4u) == record_check(head, value, st->seq) &&
-                     (tag & 0x3Fu) == TAG_PATTERN && addr < REGS_SIZE && stored(b, addr);
+        bool valid = half_at(page, off + 4u) == record_check(head, value, seq) &&
+                     (tag & 0x3Fu) == TAG_PATTERN && addr < REGS_SIZE;
         if (!valid) {
             in_group = false; /* a torn record ends the group it was in: dropped */
             continue;
         }
         if (tag & TAG_FIRST) {
-            memcpy(group, st->saved, sizeof group);
+            group = *v;
             in_group = true;
         }
         if (!in_group)
             continue; /* the rest of a group whose start was lost */
-        if (regs_table[addr].size == 2u) {
-            group[addr] = (uint8_t)value;
-            group[addr + 1u] = (uint8_t)(value >> 8);
-        } else {
-            group[addr] = (uint8_t)value;
-        }
+        group.value[addr] = value;
+        group.found |= (uint64_t)1u << addr;
         if (tag & TAG_LAST) {
-            memcpy(st->saved, group, sizeof group);
+            *v = group;
             in_group = false;
         }
     }
-    st->next = off;
+    return off;
+}
+
+/* The committed page with the newest sequence number, or STORE_NO_PAGE. */
+static uint8_t newest_page(struct hal *hal, uint32_t *seq)
+{
+    uint8_t active = STORE_NO_PAGE;
+    for (uint8_t p = 0; p < HAL_FLASH_PAGES; p++) {
+        uint32_t s;
+        if (page_committed(hal_flash_page(hal, p), &s) &&
+            (active == STORE_NO_PAGE || (int32_t)(s - *seq) > 0)) {
+            active = p;
+            *seq = s;
+        }
+    }
+    return active;
+}
+
+void store_read(struct hal *hal, struct store_values *out)
+{
+    uint32_t seq = 0;
+    uint8_t p = newest_page(hal, &seq);
+    out->found = 0;
+    if (p != STORE_NO_PAGE)
+        (void)scan(hal_flash_page(hal, p), seq, out);
 }
 
 /* The page after the active one in rotation: where the next compaction goes. */
@@ -123,32 +144,20 @@ void store_load(struct store *st, struct hal *hal, struct regs *r, uint32_t now_
 {
     memset(st, 0, sizeof *st);
     st->hal = hal;
-    st->active = STORE_NO_PAGE;
     st->tokens = STORE_BURST;
     st->refill_us = STORE_REFILL_US;
     st->token_at = now_us;
     st->retry_at = now_us;
-    memcpy(st->saved, r->mem, sizeof st->saved);
-    for (uint8_t p = 0; p < HAL_FLASH_PAGES; p++) {
-        uint32_t seq;
-        if (page_committed(hal_flash_page(hal, p), &seq) &&
-            (st->active == STORE_NO_PAGE || (int32_t)(seq - st->seq) > 0)) {
-            st->active = p;
-            st->seq = seq;
-        }
-    }
+    struct store_values v = {0};
+    st->active = newest_page(hal, &st->seq);
     if (st->active != STORE_NO_PAGE)
-        replay(st, r->board, hal_flash_page(hal, st->active));
-    /* A stored value out of its register's range (a foreign or corrupt image) stays at
-     * the factory value; so do both limits if they would cross. */
-    for (uint8_t a = 0; a < REGS_SIZE; a++) {
-        if (!stored(r->board, a))
-            continue;
-        uint8_t n = regs_table[a].size;
-        uint16_t v = regs_value(&st->saved[a], n);
-        if (regs_in_range(a, v))
-            regs_set(r, a, v);
-    }
+        st->next = scan(hal_flash_page(hal, st->active), st->seq, &v);
+    /* Only the registers this variant keeps count. A stored value out of its register's
+     * range (a foreign or corrupt image) stays at the factory value; so do both limits
+     * if they would cross. */
+    for (uint8_t a = 0; a < REGS_SIZE; a++)
+        if (stored(r->board, a) && ((v.found >> a) & 1u) && regs_in_range(a, v.value[a]))
+            regs_set(r, a, v.value[a]);
     if (regs_get(r, REG_CW_LIMIT) > regs_get(r, REG_CCW_LIMIT)) {
         regs_set(r, REG_CW_LIMIT, regs_default(r->board, REG_CW_LIMIT));
         regs_set(r, REG_CCW_LIMIT, regs_default(r->board, REG_CCW_LIMIT));

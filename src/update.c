@@ -1,4 +1,6 @@
 /* update.c - the §10 update session (update.h): YMODEM blocks into the staging slot. */
+#include <string.h>
+
 #include "crc.h"
 #include "image.h"
 #include "update.h"
@@ -44,16 +46,20 @@ static bool block_write(struct hal *hal, uint8_t page, const uint8_t *data)
 {
     if (!hal_flash_erase(hal, page))
         return false;
-    const uint8_t *flash = hal_flash_page(hal, page);
     for (uint16_t off = 0; off < UPDATE_BLOCK_DATA; off = (uint16_t)(off + 2u)) {
         uint16_t v = (uint16_t)(data[off] | ((uint32_t)data[off + 1u] << 8));
         if (v != 0xFFFFu && !hal_flash_program(hal, page, off, v))
             return false;
     }
-    for (uint16_t i = 0; i < UPDATE_BLOCK_DATA; i++)
-        if (flash[i] != data[i])
-            return false;
-    return true;
+    return memcmp(hal_flash_page(hal, page), data, UPDATE_BLOCK_DATA) == 0;
+}
+
+/* The session is over, refused: CAN. */
+static uint8_t cancel(struct update *u, uint8_t ans[2])
+{
+    u->state = UPDATE_IDLE;
+    ans[0] = UPDATE_CAN;
+    return UPDATE_ABANDONED;
 }
 
 /* Header block (type 1, number 0). Non-zero: the image length; all zero: end of batch. */
@@ -67,35 +73,23 @@ static uint8_t on_header(struct update *u, struct hal *hal, uint16_t model, cons
             return UPDATE_ABANDONED;
         }
         struct image_info info;
+        /* Bad CRC, truncated or not what the header said; or a flash error. */
+        if (!image_valid(hal, HAL_PAGE_STAGING, model, &info) || info.length != u->length ||
+            !hal_flash_program(hal, IMAGE_MARK_PAGE, IMAGE_MARK_OFFSET, IMAGE_MARK_SET) ||
+            !image_marked(hal))
+            return cancel(u, ans);
         u->state = UPDATE_IDLE;
-        if (!image_valid(hal, HAL_PAGE_STAGING, model, &info) || info.length != u->length) {
-            ans[0] = UPDATE_CAN; /* bad CRC, truncated, or not what the header said */
-            return UPDATE_ABANDONED;
-        }
-        if (!hal_flash_program(hal, IMAGE_MARK_PAGE, IMAGE_MARK_OFFSET, IMAGE_MARK_SET) ||
-            !image_marked(hal)) {
-            ans[0] = UPDATE_CAN; /* flash error */
-            return UPDATE_ABANDONED;
-        }
         ans[0] = UPDATE_ACK;
         return UPDATE_RESTART;
     }
     if (u->state == UPDATE_ENTERED || (u->state == UPDATE_DATA && u->next == 1u)) {
         uint32_t length = ((uint32_t)d[0] << 24) | ((uint32_t)d[1] << 16) |
                           ((uint32_t)d[2] << 8) | d[3];
-        if (length < IMAGE_MIN_BYTES || length > IMAGE_MAX_BYTES) {
-            u->state = UPDATE_IDLE;
-            ans[0] = UPDATE_CAN; /* cannot be an image for this slot */
-            return UPDATE_ABANDONED;
-        }
-        /* Clear the install mark of an earlier session before anything is staged. */
-        const uint8_t *mark = &hal_flash_page(hal, IMAGE_MARK_PAGE)[IMAGE_MARK_OFFSET];
-        if ((mark[0] != 0xFFu || mark[1] != 0xFFu) &&
-            (!hal_flash_erase(hal, IMAGE_MARK_PAGE) || mark[0] != 0xFFu || mark[1] != 0xFFu)) {
-            u->state = UPDATE_IDLE;
-            ans[0] = UPDATE_CAN; /* flash error */
-            return UPDATE_ABANDONED;
-        }
+        /* Not an image for this slot; or the install mark of an earlier session, which
+         * is cleared before anything is staged, stays set (a flash error). */
+        if (length < IMAGE_MIN_BYTES || length > IMAGE_MAX_BYTES ||
+            (image_marked(hal) && (!hal_flash_erase(hal, IMAGE_MARK_PAGE) || image_marked(hal))))
+            return cancel(u, ans);
         u->length = length;
         u->blocks = (uint8_t)((length + UPDATE_BLOCK_DATA - 1u) / UPDATE_BLOCK_DATA);
         u->next = 1;
@@ -105,9 +99,7 @@ static uint8_t on_header(struct update *u, struct hal *hal, uint16_t model, cons
         *n = 2;
         return UPDATE_GO_ON;
     }
-    u->state = UPDATE_IDLE; /* a second file: one image per session */
-    ans[0] = UPDATE_CAN;
-    return UPDATE_ABANDONED;
+    return cancel(u, ans); /* a second file: one image per session */
 }
 
 static uint8_t on_data(struct update *u, struct hal *hal, uint16_t model, uint8_t num,
@@ -126,11 +118,8 @@ static uint8_t on_data(struct update *u, struct hal *hal, uint16_t model, uint8_
         ok = image_parse_info(d, &info) && info.model == model && info.length == u->length;
     if (ok)
         ok = block_write(hal, (uint8_t)(HAL_PAGE_STAGING + num - 1u), d);
-    if (!ok) {
-        u->state = UPDATE_IDLE;
-        ans[0] = UPDATE_CAN;
-        return UPDATE_ABANDONED;
-    }
+    if (!ok)
+        return cancel(u, ans);
     u->next++;
     return UPDATE_GO_ON;
 }
@@ -144,9 +133,7 @@ static uint8_t on_eof(struct update *u, uint8_t ans[2], uint8_t *n)
         *n = 2;
         return UPDATE_GO_ON;
     }
-    u->state = UPDATE_IDLE; /* truncated: fewer blocks than the header announced */
-    ans[0] = UPDATE_CAN;
-    return UPDATE_ABANDONED;
+    return cancel(u, ans); /* truncated: fewer blocks than the header announced */
 }
 
 uint8_t update_frame(struct update *u, struct hal *hal, uint16_t model, const uint8_t *buf,

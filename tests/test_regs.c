@@ -9,6 +9,8 @@
 #include <cmocka.h>
 
 #include "board.h"
+#include "link.h"
+#include "proto.h"
 #include "regs.h"
 
 static const struct board *const boards[] = {
@@ -498,9 +500,31 @@ static void first_invalid_register(void **state)
     assert_int_equal(regs_first_invalid(&r), REGS_SIZE);
 }
 
+/* The bootloader's update mode checks ID, baud and delay without the table
+ * (loader_settings): its rules must be exactly the table's ranges and defaults. */
+static void loader_rules_are_the_tables(void **state)
+{
+    (void)state;
+    static const struct board *const all[] = {&board_base, &board_foot, &board_arm,
+                                              &board_wrist, &board_finger};
+    for (uint32_t v = 0; v <= 0xFFFFu; v++) {
+        assert_int_equal(regs_in_range(REG_ID, (uint16_t)v), v <= PROTO_ID_MAX);
+        assert_int_equal(regs_in_range(REG_RETURN_DELAY, (uint16_t)v), v <= 0xFFu);
+        for (uint8_t i = 0; i < 5u; i++)
+            assert_int_equal(regs_in_range(REG_BAUD_RATE, (uint16_t)v),
+                             v <= 0xFFu && link_baud(all[i], (uint8_t)v) != 0u);
+    }
+    for (uint8_t i = 0; i < 5u; i++) {
+        assert_int_equal(regs_default(all[i], REG_ID), REGS_FACTORY_ID);
+        assert_int_equal(regs_default(all[i], REG_BAUD_RATE), 0);
+        assert_int_equal(regs_default(all[i], REG_RETURN_DELAY), all[i]->return_delay);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(loader_rules_are_the_tables),
         cmocka_unit_test(first_invalid_register),
         cmocka_unit_test(descriptors_are_sane),
         cmocka_unit_test(sixteen_bit_registers_are_the_specs),

@@ -14,6 +14,7 @@
 
 #include "dispatch.h"
 #include "hal_host.h"
+#include "loader.h"
 #include "proto.h"
 #include "servo.h"
 #include "store.h"
@@ -29,6 +30,13 @@ static void boot(void)
     regs_init(&r, &board_foot);
     store_load(&st, &hal, &r, hal.now_us);
     st.refill_us = 0;
+    /* The bootloader's update mode reads ID, baud and delay without the table: after
+     * every cut and every image here it must listen where the application would. */
+    struct loader_settings set;
+    loader_settings(&hal, &board_foot, &set);
+    assert_int_equal(set.id, r.mem[REG_ID]);
+    assert_int_equal(set.baud_code, r.mem[REG_BAUD_RATE]);
+    assert_int_equal(set.delay, r.mem[REG_RETURN_DELAY]);
 }
 
 static void fresh(void)

@@ -41,13 +41,19 @@ static bool pll_start(uint32_t cfgr)
     return true;
 }
 
-/* ADC clock prescaler: the smallest of /2, /4, /6, /8 that keeps the ADC <= 14 MHz. */
+/* ADC clock prescaler: the smallest of /2, /4, /6, /8 that keeps the ADC <= 14 MHz.
+ * (The bootloader reads no sensor: it leaves the ADC clock at its reset value.) */
 static uint32_t adcpre(uint32_t pclk2)
 {
+#ifdef SERVO_BOOTLOADER
+    (void)pclk2;
+    return 0;
+#else
     uint32_t code = 0;
     while (code < 3u && pclk2 / (2u * (code + 1u)) > 14000000u)
         code++;
     return code << RCC_CFGR_ADCPRE_SHIFT;
+#endif
 }
 
 void clock_init(struct hal *h)

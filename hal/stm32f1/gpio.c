@@ -23,6 +23,7 @@ void gpio_init(void)
         gpio_write(outputs[i], false);
         gpio_mode(outputs[i], GPIO_OUT_PP_2MHZ);
     }
+#ifndef SERVO_BOOTLOADER /* it never reads the switches: reset's floating input will do */
     if (BOARD_PHOTO) {
         /* Open-collector sensors: pulled toward "interrupted" if a wire comes off. */
         gpio_write(BOARD_PIN_PHOTO1, BOARD_PHOTO_ACTIVE_HIGH);
@@ -30,6 +31,7 @@ void gpio_init(void)
         gpio_mode(BOARD_PIN_PHOTO1, GPIO_IN_PULL);
         gpio_mode(BOARD_PIN_PHOTO2, GPIO_IN_PULL);
     }
+#endif
 }
 
 uint8_t hal_photo_switches(struct hal *h)

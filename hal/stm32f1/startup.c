@@ -30,7 +30,14 @@ extern uint32_t _sidata[], _sdata[], _edata[], _sbss[], _ebss[], _estack[];
 typedef void (*vector)(void);
 
 /* Flash copy of the vector table: what the core reads at reset. */
-__attribute__((section(".isr_vector"), used)) static const vector vectors[VECTORS_F103] = {
+/* The bootloader enables no interrupt past USART1's, so its table ends there. */
+#ifdef SERVO_BOOTLOADER
+#define VECTORS (16u + IRQ_USART1 + 1u)
+#else
+#define VECTORS VECTORS_F103
+#endif
+
+__attribute__((section(".isr_vector"), used)) static const vector vectors[VECTORS] = {
     [0] = (vector)(uintptr_t)_estack,
     [1] = reset_handler,
     [2] = fault_handler,  /* NMI: the clock security system saw the crystal fail */
@@ -48,7 +55,7 @@ __attribute__((section(".isr_vector"), used)) static const vector vectors[VECTOR
 /* The live table (VTOR): in RAM, at the start of RAM (the linker script puts it there),
  * aligned to its size rounded up to a power of two. */
 __attribute__((section(".ram_vectors"), aligned(256)))
-static uint32_t ram_vectors[VECTORS_F103];
+static uint32_t ram_vectors[VECTORS];
 
 void reset_handler(void)
 {
@@ -56,7 +63,7 @@ void reset_handler(void)
     memcpy(_sdata, _sidata, (size_t)((char *)_edata - (char *)_sdata));
     memset(_sbss, 0, (size_t)((char *)_ebss - (char *)_sbss));
     /* Unused vectors (left 0 above) go to the fault path too. */
-    for (uint32_t i = 0; i < VECTORS_F103; i++)
+    for (uint32_t i = 0; i < VECTORS; i++)
         ram_vectors[i] = (uint32_t)(uintptr_t)(vectors[i] ? vectors[i] : fault_handler);
     ram_vectors[0] = (uint32_t)(uintptr_t)_estack;
     SCB->vtor = (uint32_t)(uintptr_t)ram_vectors;
