@@ -7,16 +7,8 @@
 /* Copy one page of the staging slot over the same page of the application slot. */
 static bool copy_page(struct hal *hal, uint8_t page)
 {
-    const uint8_t *from = hal_flash_page(hal, (uint8_t)(HAL_PAGE_STAGING + page));
-    uint8_t to = (uint8_t)(HAL_PAGE_APP + page);
-    if (!hal_flash_erase(hal, to))
-        return false;
-    for (uint16_t off = 0; off < HAL_FLASH_PAGE_BYTES; off = (uint16_t)(off + 2u)) {
-        uint16_t v = (uint16_t)(from[off] | ((uint32_t)from[off + 1u] << 8));
-        if (v != 0xFFFFu && !hal_flash_program(hal, to, off, v))
-            return false;
-    }
-    return memcmp(hal_flash_page(hal, to), from, HAL_FLASH_PAGE_BYTES) == 0;
+    return image_write_page(hal, (uint8_t)(HAL_PAGE_APP + page),
+                            hal_flash_page(hal, (uint8_t)(HAL_PAGE_STAGING + page)));
 }
 
 /* Do the slots hold the same first length bytes? */

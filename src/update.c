@@ -1,6 +1,4 @@
 /* update.c - the §10 update session (update.h): YMODEM blocks into the staging slot. */
-#include <string.h>
-
 #include "crc.h"
 #include "image.h"
 #include "update.h"
@@ -13,6 +11,8 @@
 #define OFF_TYPE 4u
 #define OFF_NUM 5u
 #define OFF_DATA 7u
+
+_Static_assert(UPDATE_BLOCK_DATA == HAL_FLASH_PAGE_BYTES, "data block n is staging page n-1");
 
 bool update_is_frame(const uint8_t *buf, uint16_t len)
 {
@@ -39,19 +39,6 @@ static bool all_zero(const uint8_t *p, uint16_t n)
     while (n--)
         any |= *p++;
     return any == 0u;
-}
-
-/* Erase the staging page of a block, program its data, read it back. */
-static bool block_write(struct hal *hal, uint8_t page, const uint8_t *data)
-{
-    if (!hal_flash_erase(hal, page))
-        return false;
-    for (uint16_t off = 0; off < UPDATE_BLOCK_DATA; off = (uint16_t)(off + 2u)) {
-        uint16_t v = (uint16_t)(data[off] | ((uint32_t)data[off + 1u] << 8));
-        if (v != 0xFFFFu && !hal_flash_program(hal, page, off, v))
-            return false;
-    }
-    return memcmp(hal_flash_page(hal, page), data, UPDATE_BLOCK_DATA) == 0;
 }
 
 /* The session is over, refused: CAN. */
@@ -117,7 +104,7 @@ static uint8_t on_data(struct update *u, struct hal *hal, uint16_t model, uint8_
     if (ok && num == 1u) /* the info block: refuse another board's or a mislabelled image */
         ok = image_parse_info(d, &info) && info.model == model && info.length == u->length;
     if (ok)
-        ok = block_write(hal, (uint8_t)(HAL_PAGE_STAGING + num - 1u), d);
+        ok = image_write_page(hal, (uint8_t)(HAL_PAGE_STAGING + num - 1u), d);
     if (!ok)
         return cancel(u, ans);
     u->next++;
