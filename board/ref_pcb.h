@@ -1,10 +1,15 @@
 /* board/ref_pcb.h - what every reference board shares: one PCB design, an STM32F103C8
  * (64 KiB flash, 20 KiB RAM; a GD32F103C8 fits too), fitted per variant. Included by
- * each board/<name>/board_pins.h, which adds what differs: the position sensor, the
- * current shunt and the photo switches. Model number, range, limits and bus defaults
- * are in board/boards.c, the single source of those. */
+ * each board/<name>/board_pins.h after it has chosen its fittings: BOARD_POSITION_POT
+ * (potentiometer or encoder), BOARD_PHOTO (homing switches or none) and
+ * BOARD_CURRENT_MA_FS (the shunt). Model number, range, limits and bus defaults are in
+ * board/boards.c, the single source of those. */
 #ifndef BOARD_REF_PCB_H
 #define BOARD_REF_PCB_H
+
+#if !defined(BOARD_POSITION_POT) || !defined(BOARD_PHOTO) || !defined(BOARD_CURRENT_MA_FS)
+#error "board_pins.h chooses BOARD_POSITION_POT, BOARD_PHOTO and BOARD_CURRENT_MA_FS first"
+#endif
 
 #define BOARD_HSE_HZ 8000000u /* crystal; the clock code falls back to HSI without it */
 
@@ -29,9 +34,29 @@
 #define BOARD_TEMP_MV_AT_0C 500u
 #define BOARD_TEMP_UV_PER_DC 1000u  /* 10 mV per degree = 1000 uV per 0.1 C */
 
-/* Homing photo switches, where fitted (slotted, open collector, pulled up: high = light
- * path interrupted). */
-#define BOARD_REF_PIN_PHOTO1 PIN('B', 12)
-#define BOARD_REF_PIN_PHOTO2 PIN('B', 13)
+/* Current: shunt amplifier (x 20) on BOARD_ADC_CURRENT; the shunt fitted sets
+ * BOARD_CURRENT_MA_FS. */
+
+#if BOARD_POSITION_POT
+/* Position: potentiometer on the output shaft, ADC1 channel 0 (PA0); its electrical
+ * span over the ADC full scale sets the counts (struct board counts_per_rev per turn). */
+#define BOARD_ADC_POT 0u
+#define BOARD_POT_SPAN_DDEG 3000u /* 300 degrees from 0 V to 3.3 V */
+#define BOARD_POT_INVERT 0
+#else
+/* Position: quadrature encoder on TIM2 CH1/CH2 (encoder mode 3, 4 counts per line);
+ * struct board counts_per_rev = lines x 4 x gear ratio. */
+#define BOARD_PIN_ENC_A PIN('A', 0) /* TIM2_CH1 */
+#define BOARD_PIN_ENC_B PIN('A', 1) /* TIM2_CH2 */
+#define BOARD_ENCODER_INVERT 0
+#endif
+
+#if BOARD_PHOTO
+/* Homing photo switches (slotted, open collector, pulled up: high = light path
+ * interrupted). */
+#define BOARD_PIN_PHOTO1 PIN('B', 12)
+#define BOARD_PIN_PHOTO2 PIN('B', 13)
+#define BOARD_PHOTO_ACTIVE_HIGH 1
+#endif
 
 #endif
