@@ -14,6 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "identity_check.h"
 #include "hal_host.h"
 #include "proto.h"
 #include "servo.h"
@@ -50,13 +51,7 @@ static uint32_t rnd(void)
 static void check_state(void)
 {
     const struct servo *s = &servo;
-    for (uint8_t a = 0; a < REGS_SIZE; a++) {
-        const struct reg_desc *d = &regs_table[a];
-        if (!d->size || !regs_applicable(s->board, a))
-            continue;
-        if (d->access == REG_ACCESS_R && d->area == REG_AREA_EE)
-            CHECK(memcmp(&s->regs.mem[a], &factory[a], d->size) == 0);
-    }
+    CHECK(identity_unchanged(s, factory));
     CHECK(regs_first_invalid(&s->regs) == REGS_SIZE);
     /* The shaft within the travel (one position unit of tolerance for the plant). */
     int32_t pos = (int16_t)regs_get(&s->regs, REG_PRESENT_POSITION);

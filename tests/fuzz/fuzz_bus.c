@@ -40,6 +40,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "../identity_check.h"
 #include "hal_host.h"
 #include "proto.h"
 #include "servo.h"
@@ -73,13 +74,7 @@ static void check_table(void)
     if (memcmp(checked, s->regs.mem, sizeof checked) == 0)
         return;
     memcpy(checked, s->regs.mem, sizeof checked);
-    for (uint8_t a = 0; a < REGS_SIZE; a++) {
-        const struct reg_desc *d = &regs_table[a];
-        if (!d->size || !regs_applicable(s->board, a))
-            continue;
-        if (d->access == REG_ACCESS_R && d->area == REG_AREA_EE)
-            CHECK(memcmp(&s->regs.mem[a], &factory[a], d->size) == 0);
-    }
+    CHECK(identity_unchanged(s, factory));
     CHECK(regs_first_invalid(&s->regs) == REGS_SIZE);
 }
 
