@@ -120,9 +120,9 @@ static void on_signal(int sig)
  * page inside one 4 KiB file page reaches the page cache whole or not at all, so a
  * SIGKILL never tears a page; the host kernel keeps the data even if this process dies,
  * so there is no fsync (a host crash is not the power cut being modelled). */
-static void state_sync(struct sim_servo *v)
+static void state_write(struct sim_servo *v)
 {
-    if (v->state_fd < 0 || v->hal.flash.ops == v->synced_ops)
+    if (v->state_fd < 0)
         return;
     for (unsigned p = 0; p < HAL_PAGES_ALL; p++) {
         if (memcmp(v->hal.flash.mem[p], v->saved[p], HAL_FLASH_PAGE_BYTES) == 0)
@@ -134,6 +134,13 @@ static void state_sync(struct sim_servo *v)
         memcpy(v->saved[p], v->hal.flash.mem[p], HAL_FLASH_PAGE_BYTES);
     }
     v->synced_ops = v->hal.flash.ops;
+}
+
+/* The same, only if the core ran a flash operation since (the usual case: none). */
+static void state_sync(struct sim_servo *v)
+{
+    if (v->hal.flash.ops != v->synced_ops)
+        state_write(v);
 }
 
 /* The linker routes the core's flash operations here (-Wl,--wrap, tools/CMakeLists.txt)
@@ -218,7 +225,7 @@ static bool pages_blank(const struct sim_servo *v, unsigned first, unsigned coun
 static void factory_program(struct sim_servo *v)
 {
     hal_host_program_factory(&v->hal, v->board);
-    v->synced_ops = v->hal.flash.ops - 1u; /* not a counted operation: sync anyway */
+    state_write(v); /* a programmer's write, not a counted flash operation */
 }
 
 /* ---- Servos ---------------------------------------------------------------------- */
