@@ -7,6 +7,9 @@ pkgs=(cmake make gcc libc6-dev libcmocka-dev pkg-config gcc-arm-none-eabi
       python3-pytest python3-matplotlib)
 pkgs+=(qemu-system-arm) # the STM32 image under QEMU (tests/qemu_ping.py)
 pkgs+=(cppcheck clang-tidy clang libclang-rt-14-dev llvm-14) # make lint; make fuzz (llvm-cov)
+pkgs+=(python3-hypothesis)  # property tests of the SDK's parser (tools/python/tests)
+pkgs+=(python3-aiohttp libjs-chart.js chromium chromium-driver python3-selenium) # servoctl studio and its browser tests
+pkgs+=(socat gdb-multiarch) # make qemu (serial bridging) and debugging the image under QEMU
 missing=()
 for p in "${pkgs[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
