@@ -282,7 +282,7 @@ static void idle_until(uint32_t t)
 {
     uint32_t step = bus.step_us;
     bus.step_us = 2000; /* the motor rests: coarse passes are enough */
-    uint32_t r;
+    uint32_t r = 0;
     while (model.pending && next_refill(&r) && (int32_t)(r - t) <= 0) {
         vbus_run_until(&bus, r + GUARD_US);
         uint16_t table[REGS_SIZE];
@@ -305,7 +305,7 @@ static void idle_until(uint32_t t)
  * firmware's clocks can never disagree about the budget. */
 static void clear_of_refill(uint32_t window)
 {
-    uint32_t r;
+    uint32_t r = 0;
     if (next_refill(&r) && (int32_t)(r - (bus.now_us + window + GUARD_US)) < 0 &&
         (int32_t)(r + GUARD_US - bus.now_us) > 0)
         idle_until(r + GUARD_US);
@@ -664,7 +664,7 @@ static void one_sequence(uint32_t seed)
     }
     /* The end: wait out any deferred commit (at most 64 s), then cut. */
     if (model.pending) {
-        uint32_t r;
+        uint32_t r = 0;
         assert_true(next_refill(&r));
         assert_true((int32_t)(r - bus.now_us) <= (int32_t)REFILL);
         idle_until(r + GUARD_US);
