@@ -12,7 +12,6 @@
 #include "proto.h"
 #include "safety.h"
 #include "servo.h"
-#include "store.h"
 
 #define MAX_SPEED_DPS 1080 /* what the reference may ask for, degrees/s at the output */
 #define TICKS_PER_S (1000000 / (int32_t)MOTION_TICK_US)
@@ -231,8 +230,7 @@ static void homing_tick(struct servo *s)
                 return;
             }
             regs_set(&s->regs, REG_CW_LIMIT, 0);
-            regs_set(&s->regs, REG_CCW_LIMIT, (uint16_t)end);
-            store_sync(&s->store, &s->regs, hal_clock_us(s->hal)); /* the limits are stored */
+            regs_set(&s->regs, REG_CCW_LIMIT, (uint16_t)end); /* stored at the pass's end */
             m->referenced = 1;
             homing_status(s, HOMING_DONE);
             m->target = m->sw_edge * PLANNER_ONE; /* stop and hold at the end itself */
@@ -386,8 +384,7 @@ uint8_t motion_start_end(struct servo *s, uint8_t what)
             return ERR_INSTRUCTION;
         regs_set(&s->regs, REG_CCW_LIMIT, (uint16_t)here);
     }
-    store_sync(&s->store, &s->regs, hal_clock_us(s->hal)); /* both are stored (§4.6) */
-    return 0;
+    return 0; /* both limits are stored at the end of the pass (§4.6) */
 }
 
 /* Trajectory: from point i, the last point reached without a change of direction. */
@@ -431,18 +428,18 @@ uint8_t motion_traj_action(struct servo *s)
 
 uint8_t motion_custom_move(struct servo *s, const struct custom_move *cm)
 {
+    bool stop = (cm->speed & 0x7FFFu) == 0u;
+    if (!stop && (!may_start(s) || !referenced_for(s, false)))
+        return ERR_INSTRUCTION; /* refused: nothing changes, the ramps included (§3.2) */
     if (cm->has_ramps) {
         uint8_t a = acc_reg(s);
-        s->regs.mem[a] = cm->acc; /* §4.8: written into the ramp registers */
-        s->regs.mem[a + 1u] = cm->dec;
-        store_sync(&s->store, &s->regs, hal_clock_us(s->hal));
+        regs_set(&s->regs, a, cm->acc); /* §4.8: written into the ramp registers */
+        regs_set(&s->regs, (uint8_t)(a + 1u), cm->dec);
     }
-    if ((cm->speed & 0x7FFFu) == 0u) {
+    if (stop) {
         coast(s); /* rule 3: a speed of 0 stops */
         return 0;
     }
-    if (!may_start(s) || !referenced_for(s, false))
-        return ERR_INSTRUCTION;
     int32_t target;
     if (cm->absolute) {
         target = regs_clamp_goal(&s->regs, cm->target);
