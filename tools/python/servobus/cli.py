@@ -433,6 +433,8 @@ def _parser():
     sp.set_defaults(prepare=prepare_update)
     sp = add("reset", cmd_reset, "factory reset (ID becomes 1)")
     sp.add_argument("--yes", action="store_true", help="really do it")
+    from .studio import add_command  # servoctl studio: the browser app (docs/studio.md)
+    add_command(add)
     return p
 
 

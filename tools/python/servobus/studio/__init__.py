@@ -1,0 +1,25 @@
+"""Servo Studio: the browser configurator served by the SDK (docs/studio.md).
+
+    servoctl studio [--port PORT] [--baud B] [--listen 127.0.0.1:8080]
+
+The studio owns the bus while it runs: one process, one Bus, one worker thread that
+talks to it; every browser tab sees the same state. cli.py hooks it in with
+add_command(); everything else lives in this package."""
+
+DEFAULT_LISTEN = "127.0.0.1:8080"
+
+
+def add_command(add):
+    """Register `studio` with cli.py's add(name, func, help); the bus options
+    (--port, --baud) come with it."""
+    sp = add("studio", run, "the browser app: scan, control table, motion, live plot, "
+             "safety, firmware update (docs/studio.md)")
+    sp.add_argument("--listen", default=DEFAULT_LISTEN, metavar="HOST:PORT",
+                    help="where the web app listens (default %s)" % DEFAULT_LISTEN)
+    return sp
+
+
+def run(bus, args):
+    """servoctl studio: serve the app on args.listen with the Bus cli.py opened."""
+    from .server import serve
+    return serve(bus, args.listen)
