@@ -115,6 +115,10 @@ function onState(st) {
   }
   for (const id of ["table-who", "motion-who", "plot-who", "safety-who", "ident-who"])
     $(id).textContent = who();
+  if (!$("scan-baud").dataset.set && S.bauds.length) {
+    $("scan-baud").value = String(st.baud);
+    $("scan-baud").dataset.set = "1";
+  }
   renderScan(st);
   renderFirmware(st);
   renderLog(st);
@@ -205,7 +209,7 @@ function renderTable() {
       el("td", {}, rangeText(r)),
       el("td", { class: "value", id: "val-" + r.name }, applies ? "\u2026" : "n/a on the " + v),
     ];
-    const edit = el("td", {});
+    const edit = el("td", { class: "edit" });
     if (r.access.includes("W") && applies) {
       const inp = el("input", { id: "in-" + r.name, type: "text", placeholder: String(r.min) });
       const btn = el("button", { id: "set-" + r.name }, "Set");

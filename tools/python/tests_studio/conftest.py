@@ -1,0 +1,140 @@
+"""Browser tests of Servo Studio: servo-sim (started as tools/python/tests/conftest.py
+does), the studio as a child process, and a real headless Chromium (selenium)."""
+
+import importlib.util
+import os
+import sys
+import time
+
+import pytest
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+PYROOT = os.path.dirname(HERE)
+sys.path.insert(0, PYROOT)
+
+from servobus.studio import browser  # noqa: E402
+from servobus.studio.process import Studio  # noqa: E402
+
+# The SDK tests' servo-sim fixture code, loaded under another module name.
+_spec = importlib.util.spec_from_file_location(
+    "sdk_conftest", os.path.join(PYROOT, "tests", "conftest.py"))
+sdk_conftest = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(sdk_conftest)
+Sim = sdk_conftest.Sim
+
+
+@pytest.fixture
+def sim_factory():
+    sims = []
+
+    def start(*servos, state_dir=None, port=None):
+        s = Sim(servos, state_dir, port)
+        sims.append(s)
+        return s
+    yield start
+    for s in sims:
+        if s.proc.returncode is None:
+            s.stop()
+
+
+@pytest.fixture
+def studio_factory():
+    studios = []
+
+    def start(bus_url, *extra):
+        s = Studio(bus_url, *extra)
+        studios.append(s)
+        return s
+    yield start
+    for s in studios:
+        assert s.stop() == 0, s.stderr
+
+
+@pytest.fixture(scope="session")
+def chromium(tmp_path_factory):
+    why = browser.missing()
+    if why:
+        pytest.fail("the studio's browser tests need a headless Chromium: " + why)
+    downloads = tmp_path_factory.mktemp("downloads")
+    d = browser.chromium(downloads=downloads)
+    d.downloads = downloads
+    yield d
+    d.quit()
+
+
+class Page:
+    """The studio's page in Chromium, with the waits the tests need."""
+
+    def __init__(self, driver, url):
+        self.d = driver
+        self.url = url
+        driver.get(url)
+
+    def by(self, css):
+        return self.d.find_element("css selector", css)
+
+    def all(self, css):
+        return self.d.find_elements("css selector", css)
+
+    def text(self, element_id):
+        """The element's text, whether its panel is shown or not."""
+        return self.d.find_element("id", element_id).get_attribute("textContent").strip()
+
+    def click(self, element_id):
+        self.d.find_element("id", element_id).click()
+
+    def wait(self, predicate, timeout=15.0, what="the condition"):
+        deadline = time.monotonic() + timeout
+        last = None
+        while time.monotonic() < deadline:
+            try:
+                last = predicate()
+            except Exception as e:  # noqa: BLE001 (an element not there yet)
+                last = e
+            if last and not isinstance(last, Exception):
+                return last
+            time.sleep(0.05)
+        raise AssertionError("timed out waiting for %s (last: %r; message bar: %r)" % (
+            what, last, self.message()))
+
+    def message(self):
+        try:
+            return self.text("message")
+        except Exception:  # noqa: BLE001
+            return None
+
+    def panel(self, name):
+        self.by("nav button[data-panel=%s]" % name).click()
+        self.wait(lambda: self.by("#panel-%s" % name).is_displayed(), what="panel " + name)
+
+    def scan_rows(self):
+        return [[td.text for td in tr.find_elements("css selector", "td")]
+                for tr in self.all("#scan-table tbody tr")]
+
+    def wait_scanned(self, n, timeout=20.0):
+        return self.wait(lambda: len(self.scan_rows()) == n and self.scan_rows(),
+                         timeout, "%d servos in the scan table" % n)
+
+    def select(self, servo_id):
+        self.panel("scan")
+        self.wait(lambda: self.by("#scan-table tr[data-id='%d'] button" % servo_id),
+                  what="ID %d in the scan table" % servo_id).click()
+        self.wait(lambda: "ID %d " % servo_id in self.text("table-who"),
+                  what="ID %d selected" % servo_id)
+
+    def value(self, reg):
+        return self.text("val-" + reg)
+
+    def commands(self):
+        return int(self.d.find_element("id", "log-count").get_attribute("textContent"))
+
+    def readout(self):
+        """Live sample of the selected servo as the page holds it."""
+        return self.d.execute_script("return window.studio.sample")
+
+
+@pytest.fixture
+def page(chromium):
+    def open_page(url):
+        return Page(chromium, url)
+    return open_page

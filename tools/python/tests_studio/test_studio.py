@@ -1,0 +1,177 @@
+"""Servo Studio in a real headless Chromium against servo-sim: what a user does."""
+
+import re
+import time
+
+from servobus import VARIANTS
+from servobus import image as I
+from servobus.studio.process import run_studio
+
+SERVOS = ("1:arm", "2:foot", "3:base")
+
+
+def position(page):
+    """Present position (deg) in the Motion panel's live readout."""
+    m = re.search(r"Position (-?[\d.]+) deg", page.text("motion-readout"))
+    assert m, page.text("motion-readout")
+    return float(m.group(1))
+
+
+def plot_info(page):
+    """(samples, Hz, position) from the line above the live plot."""
+    text = page.d.find_element("id", "plot-info").get_attribute("textContent")
+    m = re.search(r"(\d+) samples · ([\d.]+) Hz · position (-?[\d.]+) deg", text)
+    assert m, text
+    return int(m.group(1)), float(m.group(2)), float(m.group(3))
+
+
+def test_scan_on_open_finds_the_servos_and_a_second_tab_shares_the_state(
+        sim_factory, studio_factory, page):
+    sim = sim_factory(*SERVOS)
+    studio = studio_factory(sim.url)
+    p = page(studio.url)
+    rows = p.wait_scanned(3)  # no click: opening the page scans
+    assert [r[:5] for r in rows] == [
+        ["1", "arm", "0x%04X" % VARIANTS["arm"].model_number, "1", "9600"],
+        ["2", "foot", "0x%04X" % VARIANTS["foot"].model_number, "1", "9600"],
+        ["3", "base", "0x%04X" % VARIANTS["base"].model_number, "1", "115200"]]
+    assert all(r[5] == "no error" for r in rows)
+    assert "3 servos found at 9600 baud" in p.text("scan-message")
+    p.select(2)
+    first = p.d.current_window_handle
+    p.d.switch_to.new_window("tab")
+    try:
+        p.d.get(studio.url)
+        p.wait(lambda: "ID 2 (foot)" in p.text("table-who"), what="the second tab "
+               "showing the servo the first one selected")
+        assert len(p.scan_rows()) == 3
+    finally:
+        p.d.close()
+        p.d.switch_to.window(first)
+    # A second process on the same bus is told the port is in use.
+    rc, out, err = run_studio("--port", sim.url, "--listen", "127.0.0.1:0")
+    assert rc == 1 and "in use" in err and "Servo Studio (process" in err, err
+
+
+def test_a_register_edit_shows_and_survives_a_restart_of_the_servo(
+        sim_factory, studio_factory, page, tmp_path):
+    sim = sim_factory(*SERVOS, state_dir=tmp_path)
+    studio = studio_factory(sim.url)
+    p = page(studio.url)
+    p.wait_scanned(3)
+    p.select(2)
+    p.panel("table")
+    p.wait(lambda: p.value("return_delay") == "16 (8 ms)", what="the factory return delay")
+    sent = p.commands()
+    p.by("#in-return_delay").send_keys("40")
+    p.click("set-return_delay")
+    p.wait(lambda: p.value("return_delay") == "40 (20 ms)", what="the new value shown")
+    assert p.commands() == sent + 1
+    sim.stop()  # the servos lose power; their flash is in tmp_path
+    sim = sim_factory(*SERVOS, state_dir=tmp_path, port=sim.port)
+    p.panel("log")
+    p.wait(lambda: "reconnected" in p.text("log-list"), timeout=20,
+           what="the studio reconnecting to the restarted servo-sim")
+    p.panel("table")
+    p.d.execute_script("document.getElementById('val-return_delay').textContent = '?'")
+    p.wait(lambda: p.value("return_delay") == "40 (20 ms)",
+           what="the value read again after the restart")
+
+
+def test_a_move_completes_and_the_plot_updates(sim_factory, studio_factory, page):
+    sim = sim_factory(*SERVOS)
+    studio = studio_factory(sim.url)
+    p = page(studio.url)
+    p.wait_scanned(3)
+    p.select(2)
+    p.panel("plot")
+    samples0, _, pos0 = p.wait(lambda: plot_info(p)[0] > 5 and plot_info(p),
+                               what="live samples")
+    assert abs(pos0 - 200) > 50  # premise: the goal is far from where it is
+    p.panel("motion")
+    for field, value in (("mv-goal", "200"), ("mv-speed", "180")):
+        box = p.by("#" + field)
+        box.clear()
+        box.send_keys(value)
+    p.click("mv-go")
+    p.wait(lambda: p.text("moving") == "moving", what="the motion starting")
+    p.wait(lambda: p.text("moving") == "still" and abs(position(p) - 200) <= 1,
+           timeout=10, what="the move completing at 200 deg")
+    p.panel("plot")
+    samples1, hz, pos1 = p.wait(lambda: plot_info(p)[0] > samples0 and plot_info(p),
+                                what="the plot updating")
+    assert abs(pos1 - 200) <= 1
+    assert hz >= 20, "live samples at %.1f Hz" % hz
+    traced = p.d.execute_script(
+        "return window.studio.chart.data.datasets[0].data.map(function (p) { return p.y; })")
+    assert max(traced) >= 199 and min(traced) <= pos0 + 1  # the whole move is drawn
+
+
+def test_stop_stops_a_long_move(sim_factory, studio_factory, page):
+    sim = sim_factory(*SERVOS)
+    studio = studio_factory(sim.url)
+    p = page(studio.url)
+    p.wait_scanned(3)
+    p.select(2)
+    p.panel("motion")
+    for field, value in (("mv-goal", "350"), ("mv-speed", "20")):
+        box = p.by("#" + field)
+        box.clear()
+        box.send_keys(value)
+    p.click("mv-go")
+    p.wait(lambda: p.text("moving") == "moving" and position(p) > 5,
+           what="the long move under way")
+    p.click("stop")  # in the header: in view whatever the panel
+    p.wait(lambda: p.text("moving") == "still", timeout=2, what="the servo stopping")
+    stopped = position(p)
+    time.sleep(1.0)
+    assert abs(position(p) - stopped) <= 1 and stopped < 300, (stopped, position(p))
+    p.panel("log")
+    assert "STOP: moving speed 0 to every servo" in p.text("log-list")
+
+
+def test_a_bad_value_is_refused_with_a_message_and_nothing_is_sent(
+        sim_factory, studio_factory, page):
+    sim = sim_factory(*SERVOS)
+    studio = studio_factory(sim.url)
+    p = page(studio.url)
+    p.wait_scanned(3)
+    p.select(2)
+    p.panel("table")
+    p.wait(lambda: p.value("return_delay") == "16 (8 ms)", what="the factory value")
+    sent = p.commands()
+    for text, words in (("300", "300 is out of range 0 … 255"),
+                        ("abc", "'abc' is not a number"),
+                        ("900ms", "1800 is out of range 0..255")):  # checked by the server
+        box = p.by("#in-return_delay")
+        box.clear()
+        box.send_keys(text)
+        p.click("set-return_delay")
+        p.wait(lambda: words in p.text("msg-return_delay"), what="the message for " + text)
+        assert words in p.message()
+    time.sleep(1.5)  # a table refresh later
+    assert p.value("return_delay") == "16 (8 ms)"
+    assert p.commands() == sent
+
+
+def test_a_firmware_update_reaches_100_percent_and_the_new_version_shows(
+        sim_factory, studio_factory, page, tmp_path):
+    sim = sim_factory(*SERVOS)
+    studio = studio_factory(sim.url)
+    image = tmp_path / "foot-v7.bin"
+    image.write_bytes(I.build(16384, version=7, model=VARIANTS["foot"].model_number))
+    p = page(studio.url)
+    p.wait_scanned(3)
+    p.select(2)
+    p.panel("firmware")
+    assert p.text("fw-now") == "1"
+    p.by("#fw-file").send_keys(str(image))
+    p.click("fw-go")
+    p.wait(lambda: p.text("fw-after") == "7", timeout=60, what="the new version")
+    assert p.text("fw-pct") == "100 %" and p.by("#fw-bar").get_attribute("value") == "100"
+    assert p.text("fw-before") == "1"
+    assert "16/16 blocks, 16384/16384 bytes" in p.text("fw-text")
+    assert p.text("fw-now") == "7"
+    p.panel("scan")
+    assert p.scan_rows()[1][:4] == ["2", "foot", "0x%04X" % VARIANTS["foot"].model_number,
+                                    "7"]
