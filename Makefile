@@ -2,7 +2,7 @@
 # what is missing first (tools/install-deps.sh).
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 
-.PHONY: all deps host stm32 test lint fuzz bench demo demo-bytes docs clean firmware flash
+.PHONY: all deps host stm32 test lint fuzz bench demo demo-bytes docs clean firmware flash studio
 
 # Firmware images: every reference board (board/<name>/), or the one `make flash` writes.
 BOARDS := base foot arm wrist finger
@@ -82,6 +82,13 @@ bench: deps
 # in virtual time.
 demo: host
 	/usr/bin/python3 tools/demo.py build/demo.png
+
+# Servo Studio in the browser on servo-sim with an arm, a foot and a base: prints the
+# address to open (docs/studio.md). Ctrl-C stops both.
+STUDIO_LISTEN ?= 127.0.0.1:8080
+studio: host
+	@PYTHONPATH=tools/python /usr/bin/python3 -m servobus.studio.onsim build/host/servo-sim \
+	    --listen $(STUDIO_LISTEN)
 
 demo-bytes: host
 	build/host/tools/demo

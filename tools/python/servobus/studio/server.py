@@ -20,7 +20,7 @@ import time
 
 from aiohttp import WSMsgType, web
 
-from .. import (BROADCAST, Bus, BusTimeout, IdTaken, ImageError, RangeError,
+from .. import (BROADCAST, VARIANTS, Bus, BusTimeout, IdTaken, ImageError, RangeError,
                 ServoBusError, UnknownRegister)
 from ..protocol import describe_err
 from ..registers import (BAUD_RATES, REGISTERS, UNIT_TEXT, baud_of_code, register,
@@ -30,7 +30,7 @@ STATIC = os.path.join(os.path.dirname(os.path.abspath(__file__)), "static")
 # Debian's libjs-chart.js, served from where the package installs it.
 CHART_JS = os.environ.get("STUDIO_CHART_JS",
                           "/usr/share/javascript/chart.js/chart.min.js")
-SAMPLE_HZ = 25            # live samples per second (the plot needs >= 20)
+SAMPLE_HZ = 30            # live samples per second at most (the plot needs >= 20)
 TABLE_PERIOD_S = 1.0      # whole control table of the selected servo
 RESCAN_AFTER_S = 5.0      # a page opened later than this after the last scan rescans
 LOG_KEEP = 200
@@ -277,7 +277,7 @@ class Studio:
                 v[r.name] = r.decode(int.from_bytes(data[off:off + r.size], "little"))
         deg = self.resolution * 0.1
         pos_reg = "present_position" if "present_position" in v else "turned_angle"
-        self.slow.update({k: v[k] for k in ("homing", "photo_switches") if k in v})
+        self.slow.update({k: v[k] for k in ("homing", "sleep", "photo_switches") if k in v})
         homing = self.slow.get("homing", 0)
         self.push({
             "type": "sample", "id": sid, "t": round(time.monotonic() - self.t0, 3),
@@ -287,7 +287,7 @@ class Studio:
             "temperature": v.get("present_temperature"),
             "load": None,  # no present-load register in this firmware's table
             "moving": v.get("moving", 0), "brake": v.get("brake", 0),
-            "sleep": v.get("sleep", 0), "photo": self.slow.get("photo_switches", 0),
+            "sleep": self.slow.get("sleep", 0), "photo": self.slow.get("photo_switches", 0),
             "homing_state": homing >> 4,
             "homing": {0: "never run", 1: "running", 2: "done", 3: "failed or aborted"}
             .get(homing >> 4, "state %d" % (homing >> 4)),
@@ -386,8 +386,11 @@ def routes(st):
 
     @r.get("/api/registers")
     async def registers(_):
-        return web.json_response({"registers": register_info(), "bauds": BAUD_RATES,
-                                  "units": UNIT_TEXT})
+        return web.json_response({
+            "registers": register_info(), "bauds": BAUD_RATES, "units": UNIT_TEXT,
+            "variants": {v.name: {"photo_switches": v.photo_switches,
+                                  "max_angle_deg": v.max_angle_ddeg / 10}
+                         for v in VARIANTS.values()}})
 
     @r.get("/ws")
     async def ws_handler(request):

@@ -120,7 +120,16 @@ function onState(st) {
     $("scan-baud").dataset.set = "1";
   }
   renderScan(st);
+  if (S.lastUpdate && S.lastUpdate.running && !st.update.running)
+    say(st.update.error ? st.update.error : "ID " + st.update.id + " now runs firmware version " +
+        st.update.after + " (was " + st.update.before + ").", st.update.error ? "error" : "ok");
+  S.lastUpdate = st.update;
   renderFirmware(st);
+  const v = S.variants[variantName()];
+  const homes = !v || v.photo_switches;
+  for (const b of ["home-go", "home-stop"]) $(b).disabled = !homes;
+  $("home-note").textContent = homes ? "The arm, wrist and finger move only once homed." :
+    "The " + variantName() + " has no photo switches: homing does not apply to it.";
   renderLog(st);
   $("id-new").dispatchEvent(new Event("input"));
 }
@@ -324,6 +333,7 @@ function renderFlags(m) {
   const ok = m.err === 0;
   $("safety-flags").replaceChildren(...(ok ? [el("li", { class: "health-ok" },
     "no protection active")] : m.err_words.map((w) => el("li", { class: "health-bad" }, w))),
+    el("li", {}, "temperature now " + (m.temperature === null ? "?" : m.temperature + " \u00b0C")),
     el("li", {}, "brake " + (m.brake ? "on" : "off") + ", sleep " + (m.sleep ? "on" : "off")));
 }
 
@@ -514,6 +524,7 @@ function connect() {
   const r = await (await fetch("/api/registers")).json();
   S.regs = r.registers;
   S.bauds = r.bauds;
+  S.variants = r.variants;
   $("scan-baud").replaceChildren(...S.bauds.map((b) => el("option", { value: b }, b)));
   renderTable();
   renderTraj();
