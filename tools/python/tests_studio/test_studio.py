@@ -175,3 +175,45 @@ def test_a_firmware_update_reaches_100_percent_and_the_new_version_shows(
     p.panel("scan")
     assert p.scan_rows()[1][:4] == ["2", "foot", "0x%04X" % VARIANTS["foot"].model_number,
                                     "7"]
+
+
+def test_another_program_on_the_bus_means_port_in_use(sim_factory):
+    from servobus import Bus
+    sim = sim_factory(*SERVOS)
+    with Bus(sim.url) as other:
+        assert other.ping(2) == 0  # premise: that program holds servo-sim's client slot
+        rc, out, err = run_studio("--port", sim.url, "--listen", "127.0.0.1:0")
+    assert rc == 1 and "is in use: another program is connected to it" in err, err
+
+
+APP_SLOT = 4 * 1024  # the application slot's offset in a --state-dir flash file
+
+
+def test_a_servo_waiting_in_update_mode_is_recovered(
+        sim_factory, studio_factory, page, tmp_path):
+    state = tmp_path / "state"
+    sim_factory(*SERVOS, state_dir=state).stop()
+    flash = state / "servo-2-foot.flash"
+    data = bytearray(flash.read_bytes())
+    data[APP_SLOT + 5000] ^= 0xFF  # a damaged application: the bootloader stays in charge
+    flash.write_bytes(data)
+    sim = sim_factory(*SERVOS, state_dir=state)
+    image = tmp_path / "foot-v4.bin"
+    image.write_bytes(I.build(9000, version=4, model=VARIANTS["foot"].model_number))
+    studio = studio_factory(sim.url)
+    p = page(studio.url)
+    rows = p.wait_scanned(2)
+    assert [r[0] for r in rows] == ["1", "3"]  # premise: the foot does not answer a scan
+    p.panel("firmware")
+    box = p.by("#rc-id")
+    box.clear()
+    box.send_keys("2")
+    p.by("#rc-file").send_keys(str(image))
+    p.click("rc-go")
+    p.wait(lambda: p.text("fw-after") == "4", timeout=60, what="the recovered version")
+    assert p.text("fw-before") == "none (update mode)"
+    assert "bootloader" in p.text("fw-note") and p.text("fw-pct") == "100 %"
+    p.panel("scan")
+    p.click("scan-again")
+    rows = p.wait_scanned(3)
+    assert rows[1][:4] == ["2", "foot", "0x%04X" % VARIANTS["foot"].model_number, "4"]
