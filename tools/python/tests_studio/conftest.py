@@ -20,21 +20,9 @@ _spec = importlib.util.spec_from_file_location(
     "sdk_conftest", os.path.join(PYROOT, "tests", "conftest.py"))
 sdk_conftest = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(sdk_conftest)
-Sim = sdk_conftest.Sim
 
 
-@pytest.fixture
-def sim_factory():
-    sims = []
-
-    def start(*servos, state_dir=None, port=None):
-        s = Sim(servos, state_dir, port)
-        sims.append(s)
-        return s
-    yield start
-    for s in sims:
-        if s.proc.returncode is None:
-            s.stop()
+sim_factory = sdk_conftest.sim_factory  # the same fixture: servo-sims stopped at the end
 
 
 @pytest.fixture

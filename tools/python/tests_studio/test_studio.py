@@ -25,6 +25,16 @@ def plot_info(page):
     return int(m.group(1)), float(m.group(2)), float(m.group(3))
 
 
+def on_the_foot(sim, studio_factory, page, panel):
+    """The studio on sim, the page open and scanned, the foot (ID 2) selected, panel
+    shown."""
+    p = page(studio_factory(sim.url).url)
+    p.wait_scanned(3)
+    p.select(2)
+    p.panel(panel)
+    return p
+
+
 def test_scan_on_open_finds_the_servos_and_a_second_tab_shares_the_state(
         sim_factory, studio_factory, page):
     sim = sim_factory(*SERVOS)
@@ -56,11 +66,7 @@ def test_scan_on_open_finds_the_servos_and_a_second_tab_shares_the_state(
 def test_a_register_edit_shows_and_survives_a_restart_of_the_servo(
         sim_factory, studio_factory, page, tmp_path):
     sim = sim_factory(*SERVOS, state_dir=tmp_path)
-    studio = studio_factory(sim.url)
-    p = page(studio.url)
-    p.wait_scanned(3)
-    p.select(2)
-    p.panel("table")
+    p = on_the_foot(sim, studio_factory, page, "table")
     p.wait(lambda: p.value("return_delay") == "16 (8 ms)", what="the factory return delay")
     sent = p.commands()
     p.by("#in-return_delay").send_keys("40")
@@ -79,12 +85,7 @@ def test_a_register_edit_shows_and_survives_a_restart_of_the_servo(
 
 
 def test_a_move_completes_and_the_plot_updates(sim_factory, studio_factory, page):
-    sim = sim_factory(*SERVOS)
-    studio = studio_factory(sim.url)
-    p = page(studio.url)
-    p.wait_scanned(3)
-    p.select(2)
-    p.panel("plot")
+    p = on_the_foot(sim_factory(*SERVOS), studio_factory, page, "plot")
     samples0, _, pos0 = p.wait(lambda: plot_info(p)[0] > 5 and plot_info(p),
                                what="live samples")
     assert abs(pos0 - 200) > 50  # premise: the goal is far from where it is
@@ -108,12 +109,7 @@ def test_a_move_completes_and_the_plot_updates(sim_factory, studio_factory, page
 
 
 def test_stop_stops_a_long_move(sim_factory, studio_factory, page):
-    sim = sim_factory(*SERVOS)
-    studio = studio_factory(sim.url)
-    p = page(studio.url)
-    p.wait_scanned(3)
-    p.select(2)
-    p.panel("motion")
+    p = on_the_foot(sim_factory(*SERVOS), studio_factory, page, "motion")
     for field, value in (("mv-goal", "350"), ("mv-speed", "20")):
         box = p.by("#" + field)
         box.clear()
@@ -132,12 +128,7 @@ def test_stop_stops_a_long_move(sim_factory, studio_factory, page):
 
 def test_a_bad_value_is_refused_with_a_message_and_nothing_is_sent(
         sim_factory, studio_factory, page):
-    sim = sim_factory(*SERVOS)
-    studio = studio_factory(sim.url)
-    p = page(studio.url)
-    p.wait_scanned(3)
-    p.select(2)
-    p.panel("table")
+    p = on_the_foot(sim_factory(*SERVOS), studio_factory, page, "table")
     p.wait(lambda: p.value("return_delay") == "16 (8 ms)", what="the factory value")
     sent = p.commands()
     for text, words in (("300", "300 is out of range 0 … 255"),
@@ -156,14 +147,9 @@ def test_a_bad_value_is_refused_with_a_message_and_nothing_is_sent(
 
 def test_a_firmware_update_reaches_100_percent_and_the_new_version_shows(
         sim_factory, studio_factory, page, tmp_path):
-    sim = sim_factory(*SERVOS)
-    studio = studio_factory(sim.url)
     image = tmp_path / "foot-v7.bin"
     image.write_bytes(I.build(16384, version=7, model=VARIANTS["foot"].model_number))
-    p = page(studio.url)
-    p.wait_scanned(3)
-    p.select(2)
-    p.panel("firmware")
+    p = on_the_foot(sim_factory(*SERVOS), studio_factory, page, "firmware")
     assert p.text("fw-now") == "1"
     p.by("#fw-file").send_keys(str(image))
     p.click("fw-go")

@@ -93,7 +93,7 @@ def in_words(e, baud=None):
             return ("Bus busy: the port %s — another program is connected to it" %
                     text.split(" closed")[0])
         return "The bus is gone: %s" % text
-    return text[:1].upper() + text[1:]
+    return text
 
 
 def register_info():
@@ -467,6 +467,14 @@ def routes(st):
 
             def job(bus):
                 bus.write(sid, reg.name, value)
+                if reg.name == "baud_rate" and not bus.is_tcp:
+                    # the servo answers at its new baud from now on: follow it
+                    baud = baud_of_code(value, st.variant)
+                    bus.set_baud(baud)
+                    st.state["baud"] = baud
+                    for s in st.state["servos"]:
+                        if s["id"] == sid:
+                            s["heard_baud"] = s["baud"] = baud
                 return bus.read(sid, reg.name) if reg.readable else value
             sent("ID %d: WRITE %s = %s" % (sid, reg.name, value))
             now = await st.call(job)
