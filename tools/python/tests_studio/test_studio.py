@@ -95,7 +95,6 @@ def test_a_move_completes_and_the_plot_updates(sim_factory, studio_factory, page
         box.clear()
         box.send_keys(value)
     p.click("mv-go")
-    p.wait(lambda: p.text("moving") == "moving", what="the motion starting")
     p.wait(lambda: p.text("moving") == "still" and abs(position(p) - 200) <= 1,
            timeout=10, what="the move completing at 200 deg")
     p.panel("plot")
@@ -106,6 +105,25 @@ def test_a_move_completes_and_the_plot_updates(sim_factory, studio_factory, page
     traced = p.d.execute_script(
         "return window.studio.chart.data.datasets[0].data.map(function (p) { return p.y; })")
     assert max(traced) >= 199 and min(traced) <= pos0 + 1  # the whole move is drawn
+
+    p.click("plot-pause")
+    frozen = p.wait(lambda: "paused" in p.text("plot-info") and plot_info(p)[0],
+                    what="the plot paused")
+    time.sleep(0.5)
+    assert plot_info(p)[0] == frozen and p.text("plot-pause") == "Resume"
+    for old in p.d.downloads.iterdir():
+        old.unlink()
+    p.click("plot-csv")
+    p.click("plot-png")
+    csv = p.wait(lambda: list(p.d.downloads.glob("servo-2-*.csv")), what="the CSV file")[0]
+    png = p.wait(lambda: list(p.d.downloads.glob("servo-2-*.png")), what="the PNG file")[0]
+    rows = p.wait(lambda: csv.read_text().splitlines(), what="the CSV's lines")
+    assert rows[0] == "t_s,position_deg,goal_deg,speed_deg_s,temperature_c,load"
+    assert len(rows) == frozen + 1
+    assert abs(float(rows[-1].split(",")[1]) - 200) <= 1
+    assert p.wait(lambda: png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", what="a PNG")
+    p.click("plot-pause")
+    p.wait(lambda: plot_info(p)[0] > frozen, what="the plot running again")
 
 
 def test_stop_stops_a_long_move(sim_factory, studio_factory, page):

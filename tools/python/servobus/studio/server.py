@@ -292,6 +292,7 @@ class Studio:
             "homing": {0: "never run", 1: "running", 2: "done", 3: "failed or aborted"}
             .get(homing >> 4, "state %d" % (homing >> 4)),
             "err": err, "err_words": describe_err(err), "rate": round(self.rate, 1),
+            "regs": v,  # for the control table's live values
         })
 
     def _table(self, sid):

@@ -309,7 +309,6 @@ $("traj-run").addEventListener("click", async () => {
 function onSample(m) {
   if (m.id !== selected()) return;
   S.sample = m;
-  S.samples++;
   $("motion-readout").replaceChildren(
     el("span", {}, "Position ", el("b", {}, m.position.toFixed(1) + " deg")),
     el("span", {}, "Goal ", el("b", {}, m.goal.toFixed(1) + " deg")),
@@ -320,7 +319,10 @@ function onSample(m) {
   $("home-photo").textContent = "switch 1 " + (m.photo & 1 ? "high" : "low") +
     ", switch 2 " + (m.photo & 2 ? "high" : "low");
   renderFlags(m);
+  Object.assign(S.values, m.regs);
+  if ($("panel-table").classList.contains("active")) showValues();
   if (!S.paused) {
+    S.samples++;
     const P = S.plot;
     P.t.push(m.t); P.position.push(m.position); P.goal.push(m.goal);
     P.speed.push(m.speed); P.temperature.push(m.temperature); P.load.push(m.load);
