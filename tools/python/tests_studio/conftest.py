@@ -123,6 +123,13 @@ class Page:
 
 @pytest.fixture
 def page(chromium):
+    """Open the studio's page; at the end, the page must have logged no error (a
+    script error would leave panels silently stale)."""
+    chromium.get_log("browser")  # what earlier tests left
+
     def open_page(url):
         return Page(chromium, url)
-    return open_page
+    yield open_page
+    errors = [e["message"] for e in chromium.get_log("browser") if e["level"] == "SEVERE"]
+    chromium.get("about:blank")  # before the studio stops: no reconnecting page left
+    assert not errors, errors

@@ -375,6 +375,10 @@ def routes(st):
     async def index(_):
         return web.FileResponse(os.path.join(STATIC, "index.html"))
 
+    @r.get("/favicon.ico")
+    async def favicon(_):
+        return web.Response(status=204)
+
     @r.get("/chart.js")
     async def chart(_):
         if not os.path.exists(CHART_JS):
@@ -794,6 +798,9 @@ async def _main(st, host, port, url):
     st.thread.start()
     print("Servo Studio on %s at %d baud: open %s" % (st.port, st.state["baud"], url),
           flush=True)
+    if host not in ("127.0.0.1", "localhost", "::1"):
+        print("servoctl studio: warning: listening on %s: anyone who reaches this address "
+              "can move the servos (there is no login)" % host, file=sys.stderr, flush=True)
     done = asyncio.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
         st.loop.add_signal_handler(sig, done.set)

@@ -215,7 +215,7 @@ function renderTable() {
       el("td", {}, el("span", { class: r.area === "EEPROM" ? "ee" : "ram" }, r.area)),
       el("td", {}, r.access),
       el("td", { title: r.unit_text }, r.unit ? r.unit_text || r.unit : "\u2013"),
-      el("td", {}, rangeText(r)),
+      el("td", { class: "range" }, rangeText(r)),
       el("td", { class: "value", id: "val-" + r.name }, applies ? "\u2026" : "n/a on the " + v),
     ];
     const edit = el("td", { class: "edit" });
@@ -235,9 +235,10 @@ function renderTable() {
 }
 
 function showValues() {
+  const vn = variantName();
   for (const r of S.regs) {
     const cell = $("val-" + r.name);
-    if (!cell || !(r.name in S.values)) continue;
+    if (!cell || !(r.name in S.values) || (vn && !r.variants.includes(vn))) continue;
     const v = S.values[r.name];
     cell.textContent = v === null ? (r.access.includes("R") ? "\u2013" : "write-only") :
       v + physical(r, v);
