@@ -251,7 +251,6 @@ class Studio:
         try:
             bus = Bus(self.port, baud=self.state["baud"])
             bus.raise_faults = False
-            bus.scan_window()  # (no I/O) the Bus is usable
         except ServoBusError as e:
             self.state["link"] = "%s — reconnecting" % in_words(e)
             self.changed()

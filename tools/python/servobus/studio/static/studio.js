@@ -62,6 +62,11 @@ const SCALE = {
   temperature: [1, "\u00b0C"], resolution: [0.1, "deg/unit"],
 };
 function physical(reg, v) {
+  if (reg.name === "baud_rate" && v !== null && v !== undefined) {
+    const s = servo(selected());
+    return v === 0 ? " (the variant's default" + (s ? ": " + s.baud + " baud)" : ")") :
+      S.bauds[v - 1] ? " (" + S.bauds[v - 1] + " baud)" : "";
+  }
   const sc = SCALE[reg.unit];
   if (!sc || v === null || v === undefined) return "";
   let f = sc[0];
