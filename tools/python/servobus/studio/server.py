@@ -150,12 +150,13 @@ class Studio:
     # ---- state and clients ----------------------------------------------------------
 
     def push(self, msg):
-        """Send msg to every tab (from any thread)."""
-        text = json.dumps(msg)
+        """Send msg to every tab (from any thread). It is encoded in the event loop's
+        thread, so the state is read in one place."""
         if self.loop is None:
             return
 
         def send():
+            text = json.dumps(msg)
             for ws in list(self.clients):
                 if not ws.closed:
                     asyncio.ensure_future(ws.send_str(text))
@@ -611,6 +612,8 @@ def routes(st):
             sid = int(request.query["id"])
         except (KeyError, ValueError):
             return refuse("Give the ID of the servo to update.")
+        if not 0 <= sid <= 253:
+            return refuse("ID %d is outside 0..253." % sid)
         data = await request.read()
         name = request.query.get("file", "the image")
         if not data:
@@ -629,6 +632,8 @@ def routes(st):
 
 async def do_scan(st, all_bauds, baud=None):
     """Scan at the bus baud, at one baud, or at every baud, with progress."""
+    if st.busy:
+        return  # a scan asked for twice (a page opening while one was scheduled)
     sc = st.state["scan"]
     bus_baud = st.state["baud"]
     if all_bauds and st.state["tcp"]:
