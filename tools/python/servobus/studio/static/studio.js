@@ -143,7 +143,7 @@ function renderScan(st) {
   const sc = st.scan;
   $("scan-progress").classList.toggle("show", sc.running || sc.total > 1);
   $("scan-bar").max = Math.max(sc.total, 1);
-  $("scan-bar").value = sc.running ? sc.done : sc.total;
+  $("scan-bar").value = sc.running ? sc.done + 0.5 : sc.total;  // half: this baud under way
   $("scan-text").textContent = sc.running ?
     "scanning at " + sc.baud + " baud (" + (sc.done + 1) + " of " + sc.total + ")\u2026" :
     (sc.total ? "done: " + sc.total + " baud rate" + (sc.total > 1 ? "s" : "") + " scanned" : "");
