@@ -22,4 +22,9 @@ def add_command(add):
 def run(bus, args):
     """servoctl studio: serve the app on args.listen with the Bus cli.py opened."""
     from .server import serve
-    return serve(bus, args.listen)
+    try:
+        return serve(bus, args.listen)
+    finally:
+        # The page showed the fault bits live; the bus may be closed by now, so nothing
+        # is left for the command line to ask about them after the studio ends.
+        getattr(bus, "faults", {}).clear()
