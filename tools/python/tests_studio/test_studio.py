@@ -221,3 +221,31 @@ def test_a_servo_waiting_in_update_mode_is_recovered(
     p.click("scan-again")
     rows = p.wait_scanned(3)
     assert rows[1][:4] == ["2", "foot", "0x%04X" % VARIANTS["foot"].model_number, "4"]
+
+
+def test_a_bus_without_servos_is_said_in_words(studio_factory, page):
+    import socket
+    import threading
+    # A "bus" nobody answers on: a TCP port that takes the bytes and never replies (an
+    # empty servo-sim still has its default arm).
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(1)
+    conns = []
+
+    def swallow():
+        conn, _ = server.accept()
+        conns.append(conn)
+        while conn.recv(4096):
+            pass
+    threading.Thread(target=swallow, daemon=True).start()
+    try:
+        p = page(studio_factory("tcp://127.0.0.1:%d" % server.getsockname()[1]).url)
+        p.wait(lambda: "No servo answered at 9600 baud" in p.text("scan-message"),
+               what="the empty scan in words")
+        assert p.scan_rows() == [] and "check power and wiring" in p.text("scan-message")
+        p.panel("motion")
+        p.click("mv-go")
+        p.wait(lambda: "No servo selected" in p.message(), what="the refusal")
+    finally:
+        server.close()
