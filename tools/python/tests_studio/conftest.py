@@ -65,8 +65,16 @@ class Page:
         return self.d.find_elements("css selector", css)
 
     def text(self, element_id):
-        """The element's text, whether its panel is shown or not."""
-        return self.d.find_element("id", element_id).get_attribute("textContent").strip()
+        """The element's text, whether its panel is shown or not (live readouts are
+        redrawn at every sample: an element replaced meanwhile is looked up again)."""
+        from selenium.common.exceptions import StaleElementReferenceException
+        for _ in range(5):
+            try:
+                return self.d.find_element("id", element_id).get_attribute(
+                    "textContent").strip()
+            except StaleElementReferenceException:
+                continue
+        raise AssertionError("#%s keeps being replaced" % element_id)
 
     def click(self, element_id):
         self.d.find_element("id", element_id).click()

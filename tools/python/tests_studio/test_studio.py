@@ -142,6 +142,12 @@ def test_stop_stops_a_long_move(sim_factory, studio_factory, page):
     assert abs(position(p) - stopped) <= 1 and stopped < 300, (stopped, position(p))
     p.panel("log")
     assert "STOP: moving speed 0 to every servo" in p.text("log-list")
+    # Speed mode on the foot in position mode would only set a cruise speed: said so.
+    sent = p.commands()
+    p.panel("motion")
+    p.click("sp-go")
+    p.wait(lambda: "is in position mode" in p.message(), what="the speed-mode refusal")
+    assert p.commands() == sent and p.text("moving") == "still"
 
 
 def test_a_bad_value_is_refused_with_a_message_and_nothing_is_sent(
@@ -170,6 +176,8 @@ def test_a_firmware_update_reaches_100_percent_and_the_new_version_shows(
     p = on_the_foot(sim_factory(*SERVOS), studio_factory, page, "firmware")
     assert p.text("fw-now") == "1"
     p.by("#fw-file").send_keys(str(image))
+    p.wait(lambda: "16384 bytes, model 0x%04X (foot), version 7" % VARIANTS["foot"]
+           .model_number in p.text("fw-info"), what="what the file says it is")
     p.click("fw-go")
     p.wait(lambda: p.text("fw-after") == "7", timeout=60, what="the new version")
     assert p.text("fw-pct") == "100 %" and p.by("#fw-bar").get_attribute("value") == "100"

@@ -394,6 +394,7 @@ def routes(st):
         return web.json_response({
             "registers": register_info(), "bauds": BAUD_RATES, "units": UNIT_TEXT,
             "variants": {v.name: {"photo_switches": v.photo_switches,
+                                  "model": v.model_number,
                                   "max_angle_deg": v.max_angle_ddeg / 10}
                          for v in VARIANTS.values()}})
 
@@ -538,8 +539,23 @@ def routes(st):
             v = units(body["speed"])
             if abs(v) > 0x7FFF:
                 return refuse("Speed %s deg/s is too fast." % body["speed"])
+
+            def job(bus):
+                if v and REGISTERS["acceleration"].applies_to(st.variant):  # not the base
+                    lim = bus.read_many(sid, ["cw_angle_limit", "ccw_angle_limit"])
+                    if lim["cw_angle_limit"] or lim["ccw_angle_limit"]:
+                        return ("ID %d is in position mode (angle limits %d and %d): a "
+                                "speed there is only the cruise speed of the next move. "
+                                "For speed mode set cw_angle_limit and ccw_angle_limit to "
+                                "0 in the control table." % (
+                                    sid, lim["cw_angle_limit"], lim["ccw_angle_limit"]))
+                bus.set_speed(sid, v)
+                return None
+            refused = await st.call(job)
+            if refused:
+                st.log(refused, ok=False)
+                return refuse(refused)
             sent("ID %d: speed mode at %s deg/s" % (sid, body["speed"]))
-            await st.call(lambda bus: bus.set_speed(sid, v))
             return ok()
         return await action(request, go)
 

@@ -470,6 +470,33 @@ async function sendImage(id, input) {
   if (await post("/api/update?id=" + Number(id) + "&file=" + encodeURIComponent(f.name), null, data))
     say("Updating ID " + id + " from " + f.name + "\u2026", "ok");
 }
+// What the chosen file says it is: the image's info block (docs/update.md: "SRVI",
+// length, CRC-32, model, version at 0x100). The server checks it whole before sending.
+async function describeImage(input, out, expectModel) {
+  const f = input.files[0];
+  if (!f) { out.textContent = ""; return; }
+  const b = new DataView(await f.slice(0, 0x110).arrayBuffer());
+  const magic = b.byteLength >= 0x10C ? String.fromCharCode(b.getUint8(0x100), b.getUint8(0x101),
+    b.getUint8(0x102), b.getUint8(0x103)) : "";
+  if (magic !== "SRVI") {
+    out.textContent = f.name + " is not a firmware image (no SRVI info block at 0x100).";
+    out.className = "error";
+    return;
+  }
+  const model = b.getUint16(0x10C, true), version = b.getUint8(0x10E);
+  const name = Object.keys(S.variants).find((k) => S.variants[k].model === model);
+  let text = f.name + ": " + f.size + " bytes, model 0x" + model.toString(16).toUpperCase().padStart(4, "0") +
+    " (" + (name || "unknown") + "), version " + version + ".";
+  const bad = expectModel && expectModel !== model;
+  if (bad) text += " The selected servo is model 0x" + expectModel.toString(16).toUpperCase() + ": the update will be refused.";
+  out.textContent = text;
+  out.className = bad ? "error" : "hint";
+}
+$("fw-file").addEventListener("change", () => {
+  const s = servo(selected());
+  describeImage($("fw-file"), $("fw-info"), s ? s.model : null);
+});
+$("rc-file").addEventListener("change", () => describeImage($("rc-file"), $("rc-info"), null));
 $("fw-go").addEventListener("click", () => sendImage(selected(), $("fw-file")));
 $("rc-go").addEventListener("click", () => sendImage($("rc-id").value, $("rc-file")));
 
