@@ -12,8 +12,8 @@ SERVOS = ("1:arm", "2:foot", "3:base")
 
 def position(page):
     """Present position (deg) in the Motion panel's live readout."""
-    m = re.search(r"Position (-?[\d.]+) deg", page.text("motion-readout"))
-    assert m, page.text("motion-readout")
+    m = re.fullmatch(r"(-?[\d.]+) deg", page.text("ro-pos"))
+    assert m, page.text("ro-pos")
     return float(m.group(1))
 
 

@@ -315,12 +315,11 @@ $("traj-run").addEventListener("click", async () => {
 function onSample(m) {
   if (m.id !== selected()) return;
   S.sample = m;
-  $("motion-readout").replaceChildren(
-    el("span", {}, "Position ", el("b", {}, m.position.toFixed(1) + " deg")),
-    el("span", {}, "Goal ", el("b", {}, m.goal.toFixed(1) + " deg")),
-    el("span", {}, "Speed ", el("b", {}, m.speed.toFixed(1) + " deg/s")),
-    el("span", { id: "moving" }, m.moving ? "moving" : "still"),
-    el("span", {}, "Homing: " + m.homing));
+  $("ro-pos").textContent = m.position.toFixed(1) + " deg";
+  $("ro-goal").textContent = m.goal.toFixed(1) + " deg";
+  $("ro-speed").textContent = m.speed.toFixed(1) + " deg/s";
+  $("moving").textContent = m.moving ? "moving" : "still";
+  $("ro-homing").textContent = m.homing;
   $("home-status").textContent = m.homing;
   $("home-photo").textContent = "switch 1 " + (m.photo & 1 ? "high" : "low") +
     ", switch 2 " + (m.photo & 2 ? "high" : "low");
