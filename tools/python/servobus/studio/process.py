@@ -30,7 +30,23 @@ class Studio:
     """A running studio on bus_url; .url is the page's address."""
 
     def __init__(self, bus_url, *extra, start_timeout=30):
-        self.listen = "127.0.0.1:%d" % free_port()
+        for attempt in range(5):  # the free port may be taken before the studio binds it
+            self.listen = "127.0.0.1:%d" % free_port()
+            line = self._start(bus_url, extra, start_timeout)
+            if "open http" in line:
+                break
+            self.stop()
+            if "cannot listen" not in self.stderr:
+                break
+        else:
+            line = ""
+        if "open http" not in line:
+            raise RuntimeError("the studio did not start: %s%s" % (line, self.stderr))
+        self.banner = line.strip()
+        self.url = "http://%s/" % self.listen
+
+    def _start(self, bus_url, extra, start_timeout):
+        """Start it; the line it printed (the address when it serves)."""
         env = dict(os.environ, PYTHONPATH=PYROOT, PYTHONUNBUFFERED="1")
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "servobus", "studio", "--port", bus_url,
@@ -47,11 +63,7 @@ class Studio:
             if not line:
                 break
         sel.close()
-        if "open http" not in line:
-            self.stop()
-            raise RuntimeError("the studio did not start: %s%s" % (line, self.stderr))
-        self.banner = line.strip()
-        self.url = "http://%s/" % self.listen
+        return line
 
     def stop(self):
         """SIGTERM (a clean stop); returns the exit status."""

@@ -781,23 +781,26 @@ def serve(bus, listen):
         print("servoctl studio: %s" % e, file=sys.stderr)
         return 1
     st = Studio(bus, url)
-    try:  # the first scan, before the page opens; it also proves the bus is ours
-        found, notes = st.scan_at(bus, bus.baud)
-    except ServoBusError as e:
-        if "closed the connection" in str(e):
-            print("servoctl studio: port %s is in use: another program is connected to it "
-                  "(servo-sim serves one client at a time); stop it first" % bus.port,
-                  file=sys.stderr)
-            return 1
-        print("servoctl studio: %s" % in_words(e), file=sys.stderr)
-        return 1
-    del found, notes
     try:
         return asyncio.run(_main(st, host, hport, url))
     except KeyboardInterrupt:
         return 0
     finally:
         lock.close()
+
+
+def _probe(st):
+    """The first scan, before the page opens: it proves the bus is ours. None, or what
+    is wrong in words."""
+    bus = st.bus
+    try:
+        st.scan_at(bus, bus.baud)
+    except ServoBusError as e:
+        if "closed the connection" in str(e):
+            return ("port %s is in use: another program is connected to it (servo-sim "
+                    "serves one client at a time); stop it first" % bus.port)
+        return in_words(e)
+    return None
 
 
 async def _main(st, host, port, url):
@@ -813,6 +816,11 @@ async def _main(st, host, port, url):
     except OSError as e:
         print("servoctl studio: cannot listen on %s:%d: %s (another studio? choose "
               "another with --listen)" % (host, port, e.strerror or e), file=sys.stderr)
+        await runner.cleanup()
+        return 1
+    wrong = _probe(st)  # (a page opened meanwhile waits for it: nothing else runs yet)
+    if wrong:
+        print("servoctl studio: %s" % wrong, file=sys.stderr)
         await runner.cleanup()
         return 1
     st.thread.start()
