@@ -789,17 +789,28 @@ def serve(bus, listen):
         lock.close()
 
 
+PROBE_ID = 253  # any ID: the probe only needs the bus to carry a request
+
+
 def _probe(st):
-    """The first scan, before the page opens: it proves the bus is ours. None, or what
-    is wrong in words."""
+    """Before the address is printed: a PING that proves the bus is ours (servo-sim
+    closes a second client at once). None, or what is wrong in words. The scan comes
+    when the page opens."""
     bus = st.bus
+    saved = bus.timeout
+    bus.timeout = 0.2
     try:
-        st.scan_at(bus, bus.baud)
+        bus.ping(PROBE_ID)
+    except BusTimeout:
+        pass  # nobody at that ID: the usual answer
     except ServoBusError as e:
         if "closed the connection" in str(e):
             return ("port %s is in use: another program is connected to it (servo-sim "
                     "serves one client at a time); stop it first" % bus.port)
-        return in_words(e)
+        if is_link_error(e):
+            return in_words(e)
+    finally:
+        bus.timeout = saved
     return None
 
 
