@@ -21,7 +21,14 @@ def add_command(add):
 
 def run(bus, args):
     """servoctl studio: serve the app on args.listen with the Bus cli.py opened."""
-    from .server import serve
+    import sys
+    try:
+        from .server import serve
+    except ImportError as e:
+        print("servoctl studio: %s — the studio needs python3-aiohttp (Debian: apt-get "
+              "install python3-aiohttp libjs-chart.js, or tools/install-deps.sh)" % e,
+              file=sys.stderr)
+        return 2
     try:
         return serve(bus, args.listen)
     finally:
