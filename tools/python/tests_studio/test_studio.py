@@ -257,3 +257,23 @@ def test_a_bus_without_servos_is_said_in_words(studio_factory, page):
         p.wait(lambda: "No servo selected" in p.message(), what="the refusal")
     finally:
         server.close()
+
+
+def test_homing_shows_its_live_status_then_a_trajectory_runs(
+        sim_factory, studio_factory, page):
+    sim = sim_factory(*SERVOS)
+    p = page(studio_factory(sim.url).url)
+    p.wait_scanned(3)
+    p.select(1)  # the arm: photo switches, moves only once homed
+    p.panel("motion")
+    p.wait(lambda: p.text("ro-homing") == "never run", what="the arm never homed")
+    p.click("home-go")
+    p.wait(lambda: p.text("home-status") == "running", what="homing running")
+    p.wait(lambda: p.text("home-status") == "done", timeout=60, what="homing done")
+    seen = set()
+    p.click("traj-run")  # the table's default points: 90, 180, then 120 deg
+    p.wait(lambda: seen.add(round(position(p))) or (
+        p.text("moving") == "still" and abs(position(p) - 120) <= 1 and min(seen) <= 95),
+        timeout=45, what="the trajectory through 90 deg ending at 120 deg")
+    p.panel("log")
+    assert "ID 1: trajectory of 3 points, run" in p.text("log-list")
