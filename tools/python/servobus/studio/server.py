@@ -225,7 +225,7 @@ class Studio:
                     self.sample_error = None
                     self.state["sample_error"] = ""
                     self.changed()
-            except ServoBusError as e:
+            except (ServoBusError, OSError) as e:  # OSError: a serial adapter unplugged
                 if is_link_error(e):
                     self._lost(e)
                     continue
@@ -252,7 +252,7 @@ class Studio:
         try:
             bus = Bus(self.port, baud=self.state["baud"])
             bus.raise_faults = False
-        except ServoBusError as e:
+        except (ServoBusError, OSError) as e:
             self.state["link"] = "%s — reconnecting" % in_words(e)
             self.changed()
             return
@@ -432,7 +432,7 @@ def routes(st):
         except (RangeError, UnknownRegister, IdTaken, ImageError) as e:
             st.log("refused: %s" % e, ok=False)
             return refuse(in_words(e))
-        except ServoBusError as e:
+        except (ServoBusError, OSError) as e:
             words = in_words(e, st.bus.baud if st.bus else None)
             st.log(words, ok=False)
             return refuse(words)
@@ -710,7 +710,7 @@ async def do_scan(st, all_bauds, baud=None):
             st.selected = None
         if st.selected is None and servos:
             await st.call(st.select(servos[0]["id"]))
-    except ServoBusError as e:
+    except (ServoBusError, OSError) as e:
         sc["message"] = in_words(e)
         st.log("scan: %s" % e, ok=False)
     finally:
@@ -749,7 +749,7 @@ async def do_update(st, sid, data, name):
         for s in st.state["servos"]:
             if s["id"] == sid:
                 s["firmware"] = up["after"]
-    except (ServoBusError, ImageError) as e:
+    except (ServoBusError, ImageError, OSError) as e:
         up["error"] = in_words(e)
         st.log("update of ID %d: %s" % (sid, e), ok=False)
     finally:
@@ -803,7 +803,7 @@ def _probe(st):
         bus.ping(PROBE_ID)
     except BusTimeout:
         pass  # nobody at that ID: the usual answer
-    except ServoBusError as e:
+    except (ServoBusError, OSError) as e:
         if "closed the connection" in str(e):
             return ("port %s is in use: another program is connected to it (servo-sim "
                     "serves one client at a time); stop it first" % bus.port)
