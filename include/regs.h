@@ -174,6 +174,10 @@ bool regs_speed_mode(const struct regs *r);
  * finger, the turned angle (40) elsewhere. */
 uint16_t regs_present_position(const struct regs *r);
 
+/* The acceleration register of the variant (the deceleration follows it): 21 on the
+ * base, 34 elsewhere (§5). */
+uint8_t regs_ramp_addr(const struct board *b);
+
 /* Goal clamped to the angle limits (unchanged in speed mode). */
 uint16_t regs_clamp_goal(const struct regs *r, uint16_t goal);
 

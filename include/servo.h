@@ -36,7 +36,6 @@ struct servo {
     struct motion motion;
     struct safety safety;
     struct update update; /* §10 session */
-    uint8_t live_err; /* ERR bits 0-3 and 6, owned by the safety layer */
     uint8_t fw_version; /* register 2: the running image's version */
     uint8_t in_loader;  /* running update mode (loader.h), not the application */
     uint8_t restart;    /* restart once the answer in progress has left the wire */

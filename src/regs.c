@@ -242,3 +242,8 @@ uint16_t regs_present_position(const struct regs *r)
     return regs_get(r, regs_applicable(r->board, REG_PRESENT_POSITION) ? REG_PRESENT_POSITION
                                                                        : REG_TURNED_ANGLE);
 }
+
+uint8_t regs_ramp_addr(const struct board *b)
+{
+    return b->variant == VARIANT_BASE ? REG_BASE_ACCELERATION : REG_ACCELERATION;
+}
