@@ -15,6 +15,7 @@ struct control {
     int64_t counts;   /* measured position, unwrapped */
     int32_t raw;      /* last raw sensor reading */
     int32_t vel_q8;   /* measured velocity, counts/tick x 2^8, filtered */
+    int8_t vel_rem;   /* the filter's division remainder, carried */
     int32_t integral; /* position error summed while the reference rests */
     int16_t duty;     /* last drive, before the mirror sign */
     int8_t sign;      /* -1 when register 19 = 2 mirrors the motor (§9) */

@@ -5,15 +5,17 @@
 #ifndef HOMING_H
 #define HOMING_H
 
+#include <stdbool.h>
 #include <stdint.h>
 
-enum homing_phase { HOME_BACKOFF, HOME_SEEK, HOME_REVERSE };
+enum homing_phase { HOME_BACKOFF, HOME_SEEK, HOME_REVERSE, HOME_RETURN };
 
 /* What the motion layer does after a homing step. */
 enum homing_event {
     HOMING_RUN,  /* keep turning at homing speed in direction homing_dir() */
     HOMING_ZERO, /* switch 1 found: zero at the switch edge, then run toward the end */
-    HOMING_END,  /* switch 2 found: the end is at the switch edge */
+    HOMING_END,  /* switch 2 found: the end is at the switch edge; return onto it */
+    HOMING_RETURN, /* returning onto the end from the overrun past switch 2 */
     HOMING_FAIL, /* both switches at once, or a switch not found within the travel */
 };
 
@@ -28,6 +30,10 @@ void homing_start(struct homing *h, uint8_t switches, int64_t counts, int64_t ma
 
 /* One control tick. */
 uint8_t homing_step(struct homing *h, uint8_t switches, int64_t counts);
+
+/* Switch 2 was found: homing is returning onto the end (§9 step 3: its own stop, which
+ * the heartbeat does not cut). */
+bool homing_returning(const struct homing *h);
 
 /* +1 toward the end (switch 2), -1 toward zero (switch 1). */
 int8_t homing_dir(const struct homing *h);

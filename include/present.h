@@ -15,6 +15,7 @@ struct present_inputs {
     int16_t speed;     /* position units per second */
     bool moving;       /* a move, speed, trajectory, stop or homing is running */
     uint8_t switches;  /* photo switches, debounced */
+    int16_t temperature_dc; /* 0.1 degree C */
 };
 
 void present_write(struct regs *r, const struct board *b, const struct present_inputs *in);

@@ -26,7 +26,12 @@ void control_measure(struct control *c, int32_t raw, uint8_t switches)
     int32_t delta = (int32_t)((uint32_t)raw - (uint32_t)c->raw) * c->sign;
     c->raw = raw;
     c->counts += delta;
-    c->vel_q8 += (delta * 256 - c->vel_q8) / 8;
+    /* First-order filter, 1/8 per tick, its division remainder carried to the next tick:
+     * no bias, and a shaft at rest reads exactly 0 (truncation alone left up to 7/256 of
+     * a count per tick for ever: 1 unit/s). */
+    int32_t dv = delta * 256 - c->vel_q8 + c->vel_rem;
+    c->vel_q8 += dv / 8;
+    c->vel_rem = (int8_t)(dv % 8);
     uint8_t sw = switches & 3u;
     if (sw != c->sw_raw) {
         c->sw_raw = sw;

@@ -33,7 +33,18 @@ uint8_t homing_step(struct homing *h, uint8_t switches, int64_t counts)
             return HOMING_ZERO;
         }
         return HOMING_RUN;
+    case HOME_REVERSE:
+        if (switches & 2u) {
+            h->phase = HOME_RETURN;
+            return HOMING_END;
+        }
+        return HOMING_RUN;
     default:
-        return (switches & 2u) ? HOMING_END : HOMING_RUN;
+        return HOMING_RETURN;
     }
+}
+
+bool homing_returning(const struct homing *h)
+{
+    return h->phase == HOME_RETURN;
 }

@@ -14,7 +14,6 @@
 #include "proto.h"
 #include "safety.h"
 #include "servo.h"
-#include "store.h"
 
 #define HOMING_DEFAULT_ACC 36u /* 360 degree/s^2 when the ramp registers say "no ramp" */
 
@@ -144,24 +143,33 @@ void motion_start_homing(struct servo *s)
     m->speed_target = homing_dir(&m->home) * m->lim.vmax;
 }
 
-/* Switch 2 found at the switch edge: the travel is measured; stop and hold at the end. */
-static void homing_end(struct servo *s)
+/* Switch 2 found at the switch edge: the travel is measured; the limits are set (and
+ * stored at the end of the pass); from the next tick homing returns onto the end. False
+ * if the travel is out of range: homing failed. */
+static bool homing_end(struct servo *s)
 {
     struct motion *m = &s->motion;
     int32_t end = scale_counts_to_units(motion_scale(s), m->ctl.sw_edge - m->zero);
     if (end < 1 || end > 0x7FFF) {
         motion_hold_here(s);
-        return;
+        return false;
     }
     regs_set(&s->regs, REG_CW_LIMIT, 0);
     regs_set(&s->regs, REG_CCW_LIMIT, (uint16_t)end);
-    store_sync(&s->store, &s->regs, hal_clock_us(s->hal)); /* the limits are stored */
-    m->referenced = 1;
-    homing_status(s, HOMING_DONE);
     m->target = m->ctl.sw_edge * PLANNER_ONE; /* stop and hold at the end itself */
     regs_set(&s->regs, REG_GOAL_POSITION, (uint16_t)end);
-    m->mode = MOTION_MOVE;
-    planner_step_to(&m->plan, m->target, &m->lim);
+    return true;
+}
+
+/* Back onto the end: done, and referenced, once the reference rests there. */
+static void homing_return(struct servo *s)
+{
+    struct motion *m = &s->motion;
+    if (planner_step_to(&m->plan, m->target, &m->lim)) {
+        m->referenced = 1;
+        homing_status(s, HOMING_DONE);
+        m->mode = MOTION_HOLD;
+    }
 }
 
 /* One tick of homing (§9), after the switches were read. */
@@ -173,7 +181,11 @@ static void homing_tick(struct servo *s)
         motion_hold_here(s);
         return;
     case HOMING_END:
-        homing_end(s);
+        if (!homing_end(s))
+            return;
+        break; /* this tick still at homing speed, as the overrun was measured */
+    case HOMING_RETURN:
+        homing_return(s);
         return;
     case HOMING_ZERO:
         m->zero = m->ctl.sw_edge; /* positions count up from here toward the end */
@@ -279,7 +291,8 @@ static void protect(struct servo *s)
     uint8_t ev = safety_tick(&s->safety, &s->regs, s->board, &in);
     if (ev == SAFETY_UNLOAD) {
         motion_coast(s);
-    } else if (ev == SAFETY_HEARTBEAT && in.moving) {
+    } else if (ev == SAFETY_HEARTBEAT && in.moving &&
+               !(m->mode == MOTION_HOME && homing_returning(&m->home))) {
         if (m->mode == MOTION_HOME)
             homing_fail(s);
         stop_soft(s);
@@ -340,6 +353,7 @@ void motion_poll(struct servo *s, uint32_t now_us)
         .speed = scale_speed_units(motion_scale(s), m->ctl.vel_q8),
         .moving = is_moving(m),
         .switches = m->ctl.switches,
+        .temperature_dc = hal_temperature_dc(s->hal),
     };
     present_write(&s->regs, s->board, &p);
 }
