@@ -217,12 +217,10 @@ void dispatch_frame(struct servo *s, const struct frame *f)
     bool broadcast = id == PROTO_ID_BROADCAST;
     if (!broadcast && id != l->id)
         return;
-    uint32_t at = f->end_us + (uint32_t)l->delay * 500u;
+    uint32_t at = link_reply_at(l, f->end_us);
 
     if (update_is_frame(f->buf, f->len)) { /* §10, checksum errors included (NAK) */
-        if (!broadcast &&
-            loader_update_frame(s, f->buf, f->len, f->status == FRAME_OK, f->end_us) ==
-                UPDATE_STARTED)
+        if (!broadcast && loader_update_frame(s, f) == UPDATE_STARTED)
             motion_torque_off(s); /* no motion during an update */
         return;
     }

@@ -752,7 +752,9 @@ static void dispatch_frame_schedules_answer(void **state)
 {
     (void)state;
     struct frame f;
+    uint8_t buf[FRAME_BYTES];
     memset(&f, 0, sizeof f);
+    f.buf = buf;
     const uint8_t body[] = {0x01, 0x04, 0x02, 0x03, 0x01, 0x0B}; /* READ ID */
     memcpy(f.buf, body, sizeof body);
     f.len = sizeof body;

@@ -109,7 +109,9 @@ static void w_limits(uint16_t cw, uint16_t ccw)
 static uint8_t cmd(uint8_t ins, const uint8_t *p, uint8_t n)
 {
     static struct frame f;
+    static uint8_t buf[FRAME_BYTES];
     memset(&f, 0, sizeof f);
+    f.buf = buf;
     f.buf[0] = s.link.id;
     f.buf[1] = (uint8_t)(n + 2u);
     f.buf[2] = ins;
