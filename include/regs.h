@@ -100,12 +100,12 @@ struct reg_desc {
     uint8_t area;
     uint8_t variants;
     uint8_t def_src;
-    uint8_t unit;
-    uint8_t flags;
     uint16_t def;
     uint16_t min;
     uint16_t max;
-#if REGS_WITH_TEXT
+#if REGS_WITH_TEXT /* what only the docs and the host tools need: not in the images */
+    uint8_t unit;
+    uint8_t flags;
     const char *name; /* snake_case, as the host tools spell it */
     const char *doc;
 #endif
