@@ -23,28 +23,23 @@
 #include <stdbool.h>
 #include <stdint.h>
 
+#include "proto.h"
+
 #define FRAME_SLOTS 4u    /* power of two: frames buffered between ISR and main loop */
 #define FRAME_BYTES 257u  /* ID, LEN and the LEN bytes it counts (INS, params, CHK) */
-#define FRAME_BLOCK_BYTES (2u + 1031u + 1u) /* ID, LEN, a §10 data block, CHK */
-#define FRAME_BLOCK FRAME_SLOTS /* queue entry meaning "the block buffer" */
+#define FRAME_BLOCK_BYTES PROTO_UPDATE_DATA_FRAME /* ID, LEN, a §10 data block, CHK */
+#define FRAME_BLOCK FRAME_SLOTS /* the block buffer's entry, after the slots */
 #define FRAME_READY (2u * FRAME_SLOTS) /* queue entries: every slot and the block */
 
 enum frame_status { FRAME_OK, FRAME_BAD_CHECKSUM };
 
-/* One received frame, header stripped: buf = ID, LEN, INS, P1..Pn, CHK. */
+/* One received frame, header stripped: buf = ID, LEN, INS, P1..Pn, CHK. A slot's frame
+ * or the §10 data block: one type, so the main loop handles both alike. */
 struct frame {
     uint32_t end_us; /* arrival time of the last byte */
-    uint16_t len;    /* LEN + 2 */
+    uint16_t len;    /* LEN + 2 (FRAME_BLOCK_BYTES for the block) */
     uint8_t status;  /* enum frame_status */
-    uint8_t buf[FRAME_BYTES];
-};
-
-/* The §10 data block, same fields as struct frame. */
-struct frame_block {
-    uint32_t end_us;
-    uint16_t len; /* FRAME_BLOCK_BYTES */
-    uint8_t status;
-    uint8_t buf[FRAME_BLOCK_BYTES];
+    uint8_t *buf;    /* the entry's buffer, set by frame_rx_init() */
 };
 
 /* Parse state of one candidate frame (ISR only). */
@@ -56,8 +51,9 @@ struct frame_parser {
 };
 
 struct frame_rx {
-    struct frame slot[FRAME_SLOTS];
-    struct frame_block block;
+    struct frame slot[FRAME_SLOTS + 1u]; /* the slots, then the block (FRAME_BLOCK) */
+    uint8_t slot_buf[FRAME_SLOTS][FRAME_BYTES];
+    uint8_t block_buf[FRAME_BLOCK_BYTES];
     uint8_t block_busy; /* block taken by a parser or published; ISR sets, release clears */
     /* Published frames: ISR writes ready_head, main loop writes ready_tail. */
     uint8_t ready[FRAME_READY];
@@ -98,14 +94,11 @@ bool frame_rx_idle(struct frame_rx *rx, uint32_t now_us);
 /* Main loop, irq masked: the baud rate changed; so do the time-outs. */
 void frame_rx_set_baud(struct frame_rx *rx, uint32_t baud);
 
-/* Main loop: the oldest published frame, or 0 (none, or the oldest is the data block).
- * Stays valid until frame_rx_release(). */
+/* Main loop: the oldest published frame (a slot's or the data block), or 0. Stays valid
+ * until frame_rx_release(). */
 const struct frame *frame_rx_peek(struct frame_rx *rx);
 
-/* Main loop: the data block if it is the oldest published frame, or 0. */
-const struct frame_block *frame_rx_peek_block(struct frame_rx *rx);
-
-/* Main loop: give the oldest published frame (or block) back to the receiver. */
+/* Main loop: give the oldest published frame back to the receiver. */
 void frame_rx_release(struct frame_rx *rx);
 
 #endif

@@ -13,6 +13,8 @@
 
 struct servo;
 
+#define LINK_DELAY_UNIT_US 500u /* register 5: the return delay in 500 us units (§5) */
+
 enum link_state { LINK_IDLE, LINK_WAITING, LINK_SENDING };
 
 struct link {
@@ -32,6 +34,10 @@ uint32_t link_baud(const struct board *b, uint8_t code);
 
 /* Time on the wire of n bytes at baud, in microseconds, rounded up. */
 uint32_t link_bytes_us(uint32_t baud, uint32_t n);
+
+/* When the answer to a frame that ended at end_us may start: after the return delay in
+ * force (§5, register 5). */
+uint32_t link_reply_at(const struct link *l, uint32_t end_us);
 
 /* Take the table's settings into force (and the UART's baud) unconditionally. */
 void link_latch(struct servo *s);

@@ -2,7 +2,8 @@
  * It listens at the stored ID and baud (read through the persistent store, never
  * written) and answers only the §10 update frames; the motor is never driven. The
  * STM32 bootloader runs it; on the host, servo_power_on() does when boot_install()
- * finds no valid application. Interrupt side: servo_rx_isr() as for the application. */
+ * finds no valid application. Its main loop is servo_poll(), as the application's;
+ * interrupt side: servo_rx_isr(). */
 #ifndef LOADER_H
 #define LOADER_H
 
@@ -22,15 +23,10 @@ void loader_settings(struct hal *hal, const struct board *b, struct loader_setti
  * empty. Reads the flash, never writes it. */
 void loader_init(struct servo *s, const struct board *b, struct hal *hal);
 
-/* Answer a §10 frame (buf = ID ... CHK, len bytes) if it is addressed to this servo:
- * run the session (update.h), schedule the answer (always, ERR 0, after the return
- * delay), and on a verified image set s->restart. Returns the enum update_outcome.
- * Shared by update mode and the application's dispatcher. */
-uint8_t loader_update_frame(struct servo *s, const uint8_t *buf, uint16_t len, bool chk_ok,
-                            uint32_t end_us);
-
-/* Main loop step of update mode. Restarts (hal_restart) after answering the end of a
- * verified session. Never blocks. */
-void loader_poll(struct servo *s);
+/* Answer a §10 frame if it is addressed to this servo: run the session (update.h),
+ * schedule the answer (always, ERR 0, after the return delay), and on a verified image
+ * set s->restart (servo_poll restarts once the answer is out). Returns the enum
+ * update_outcome. Shared by update mode and the application's dispatcher. */
+uint8_t loader_update_frame(struct servo *s, const struct frame *f);
 
 #endif

@@ -7,7 +7,10 @@
 #include <stdbool.h>
 #include <stdint.h>
 
+#include "control.h"
+#include "homing.h"
 #include "planner.h"
+#include "sequence.h"
 
 struct servo;
 
@@ -23,33 +26,23 @@ enum motion_mode {
     MOTION_HOME,  /* homing (§9) */
 };
 
-/* Homing phases and the status nibble of register 24. */
-enum homing_phase { HOME_BACKOFF, HOME_SEEK, HOME_REVERSE, HOME_END };
+/* The status nibble of register 24. */
 enum homing_status { HOMING_NEVER, HOMING_RUNNING, HOMING_DONE, HOMING_FAILED };
 
-/* State of the motion layer of one servo. */
+/* State of the motion layer of one servo: the mode and the planned reference are its
+ * own; the controller, homing and trajectory sequencing keep theirs in their structs. */
 struct motion {
     struct plan plan;        /* reference (counts x 2^24) */
     struct plan_limits lim;  /* of the running move */
     int64_t target;          /* move target, counts x 2^24 */
     int32_t speed_target;    /* speed mode velocity, counts/tick x 2^24 */
-    int64_t counts;          /* measured position, unwrapped */
     int64_t zero;            /* counts at position 0 */
-    int32_t raw;             /* last raw sensor reading */
-    int32_t vel_q8;          /* measured velocity, counts/tick x 2^8, filtered */
-    int8_t vel_rem;          /* the filter's division remainder, carried */
-    int32_t integral;        /* position error summed while the reference rests */
     uint32_t tick_us;        /* time of the last control tick */
-    int16_t duty;            /* last drive */
     uint8_t mode;            /* enum motion_mode */
-    uint8_t traj_next;       /* trajectory: point being approached */
-    uint8_t traj_stop;       /* trajectory: last point before a reversal or the end */
-    int8_t sign;             /* -1 when register 19 = 2 mirrors the motor (§9) */
     uint8_t referenced;      /* homing succeeded: the limits are the measured travel */
-    uint8_t home_phase;      /* enum homing_phase */
-    int64_t home_from;       /* counts where the phase began */
-    uint8_t sw_raw, sw_count; /* photo switch debouncing */
-    int64_t sw_edge;         /* counts where the switches last changed (not debounce-late) */
+    struct control ctl;      /* control.h */
+    struct homing home;      /* homing.h */
+    struct sequence seq;     /* sequence.h */
 };
 
 /* CUSTOM MOVE (PROTOCOL.md §4.8), decoded. */
@@ -80,8 +73,11 @@ uint8_t motion_start_end(struct servo *s, uint8_t what);
  * ERR_INSTRUCTION. */
 uint8_t motion_traj_action(struct servo *s);
 
-/* CUSTOM MOVE (§4.8). Returns 0 or ERR_INSTRUCTION. */
-uint8_t motion_custom_move(struct servo *s, const struct custom_move *m);
+/* CUSTOM MOVE (§4.8): may it run now? 0 or ERR_INSTRUCTION (a speed of 0 always may). */
+uint8_t motion_custom_allowed(const struct servo *s, const struct custom_move *m);
+
+/* CUSTOM MOVE, allowed, its ramps already in the registers. */
+void motion_custom_move(struct servo *s, const struct custom_move *m);
 
 /* Torque off at once and stay off until the next motion command (a firmware update). */
 void motion_torque_off(struct servo *s);

@@ -3,6 +3,7 @@
 #ifndef PROTO_H
 #define PROTO_H
 
+#include <stdbool.h>
 #include <stdint.h>
 
 #define PROTO_HEADER0 0xD5u
@@ -36,6 +37,25 @@
 /* Longest status packet: header, ID, LEN, ERR, 49 data bytes (a READ of the whole table
  * after address 0 is 50), checksum. */
 #define PROTO_STATUS_MAX (5u + 50u + 1u)
+
+/* The §10 update frames, shared by the receiver (the data block is the one frame longer
+ * than LEN can say) and the update session: CUSTOM with sub-command 0xFC (enter) or 0xFE
+ * (a block: header, data or end of file). */
+#define PROTO_UPDATE_SUB_ENTER 0xFCu
+#define PROTO_UPDATE_SUB_BLOCK 0xFEu
+#define PROTO_UPDATE_TYPE_HEADER 0x01u
+#define PROTO_UPDATE_TYPE_DATA 0x02u
+#define PROTO_UPDATE_TYPE_EOF 0x04u
+#define PROTO_UPDATE_HEADER_DATA 128u
+#define PROTO_UPDATE_BLOCK_DATA 1024u
+/* A data block, header stripped: ID LEN(FF) FF FE 02 n ~n, the data, CRC-16, CHK. */
+#define PROTO_UPDATE_DATA_FRAME (7u + PROTO_UPDATE_BLOCK_DATA + 3u)
+
+/* Speeds (register 32, CUSTOM MOVE, §5): bit 15 the direction, bits 0-14 the magnitude. */
+#define PROTO_SPEED_MAGNITUDE 0x7FFFu
+
+/* Rule 3 of §0: a speed whose magnitude is 0 stops the motor, whatever its direction bit. */
+bool proto_speed_is_stop(uint16_t speed);
 
 /* Little-endian 16-bit value at p (§4: multi-byte values are L then H). */
 uint16_t proto_get16(const uint8_t *p);

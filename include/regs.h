@@ -100,12 +100,12 @@ struct reg_desc {
     uint8_t area;
     uint8_t variants;
     uint8_t def_src;
-    uint8_t unit;
-    uint8_t flags;
     uint16_t def;
     uint16_t min;
     uint16_t max;
-#if REGS_WITH_TEXT
+#if REGS_WITH_TEXT /* what only the docs and the host tools need: not in the images */
+    uint8_t unit;
+    uint8_t flags;
     const char *name; /* snake_case, as the host tools spell it */
     const char *doc;
 #endif
@@ -184,6 +184,10 @@ bool regs_speed_mode(const struct regs *r);
 /* The present position as the goal register counts it: register 36 on the wrist and
  * finger, the turned angle (40) elsewhere. */
 uint16_t regs_present_position(const struct regs *r);
+
+/* The acceleration register of the variant (the deceleration follows it): 21 on the
+ * base, 34 elsewhere (§5). */
+uint8_t regs_ramp_addr(const struct board *b);
 
 /* Goal clamped to the angle limits (unchanged in speed mode). */
 uint16_t regs_clamp_goal(const struct regs *r, uint16_t goal);

@@ -36,7 +36,6 @@ struct servo {
     struct motion motion;
     struct safety safety;
     struct update update; /* §10 session */
-    uint8_t live_err; /* ERR bits 0-3 and 6, owned by the safety layer */
     uint8_t fw_version; /* register 2: the running image's version */
     uint8_t in_loader;  /* running update mode (loader.h), not the application */
     uint8_t restart;    /* restart once the answer in progress has left the wire */
@@ -49,7 +48,9 @@ void servo_init(struct servo *s, const struct board *b, struct hal *hal);
 /* Interrupt context: the UART received one byte. */
 void servo_rx_isr(struct servo *s, uint8_t byte);
 
-/* Main loop: do whatever is due (send an answer, dispatch the next frame). Never blocks. */
+/* Main loop, both modes (the application, and update mode when servo_power_on() or the
+ * bootloader started that): do whatever is due (a control tick, send an answer,
+ * dispatch the next frame, commit a changed setting). Never blocks. */
 void servo_poll(struct servo *s);
 
 /* Power-up as the MCU does it with its bootloader (host harnesses): install a staged
@@ -57,7 +58,5 @@ void servo_poll(struct servo *s);
  * valid image is installed. */
 void servo_power_on(struct servo *s, const struct board *b, struct hal *hal);
 
-/* Main loop step of whichever servo_power_on() started. */
-void servo_step(struct servo *s);
 
 #endif

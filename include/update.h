@@ -13,18 +13,13 @@
 #include <stdint.h>
 
 #include "hal.h"
+#include "proto.h"
 
-#define UPDATE_SUB_ENTER 0xFCu
-#define UPDATE_SUB_BLOCK 0xFEu
-#define UPDATE_TYPE_HEADER 0x01u
-#define UPDATE_TYPE_DATA 0x02u
-#define UPDATE_TYPE_EOF 0x04u
+/* The frame shapes are proto.h's (PROTO_UPDATE_*): the receiver knows the data block. */
 #define UPDATE_ACK 0x06u
 #define UPDATE_NAK 0x15u
 #define UPDATE_CAN 0x18u
 #define UPDATE_READY 0x43u /* 'C' */
-#define UPDATE_HEADER_DATA 128u
-#define UPDATE_BLOCK_DATA 1024u
 /* A session with no update frame for this long is abandoned (the motor stays off). */
 #define UPDATE_TIMEOUT_US 10000000u
 

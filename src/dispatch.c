@@ -132,7 +132,17 @@ static uint8_t do_custom(struct servo *s, const uint8_t *p, uint8_t n)
         m.acc = p[5];
         m.dec = p[6];
     }
-    return motion_custom_move(s, &m);
+    /* All or nothing (§3.2): a refused move changes no ramp register either. */
+    uint8_t err = motion_custom_allowed(s, &m);
+    if (err)
+        return err;
+    if (m.has_ramps) { /* §4.8: written into the ramp registers */
+        uint8_t a = regs_ramp_addr(s->board);
+        regs_set(&s->regs, a, m.acc);
+        regs_set(&s->regs, (uint8_t)(a + 1u), m.dec);
+    }
+    motion_custom_move(s, &m);
+    return 0;
 }
 
 static void execute(struct servo *s, uint8_t ins, const uint8_t *p, uint8_t n, bool broadcast,
@@ -146,7 +156,7 @@ static void execute(struct servo *s, uint8_t ins, const uint8_t *p, uint8_t n, b
         }
         /* §4.1: `03 01 ERR`: the 0x01 sits where ERR usually is, ERR follows. */
         res->err = 0x01u;
-        res->data[0] = s->live_err;
+        res->data[0] = safety_err(&s->safety);
         res->n = 1;
         return;
     case INS_READ:
@@ -207,23 +217,21 @@ void dispatch_frame(struct servo *s, const struct frame *f)
     bool broadcast = id == PROTO_ID_BROADCAST;
     if (!broadcast && id != l->id)
         return;
-    uint32_t at = f->end_us + (uint32_t)l->delay * 500u;
+    uint32_t at = link_reply_at(l, f->end_us);
 
     if (update_is_frame(f->buf, f->len)) { /* §10, checksum errors included (NAK) */
-        if (!broadcast &&
-            loader_update_frame(s, f->buf, f->len, f->status == FRAME_OK, f->end_us) ==
-                UPDATE_STARTED)
+        if (!broadcast && loader_update_frame(s, f) == UPDATE_STARTED)
             motion_torque_off(s); /* no motion during an update */
         return;
     }
     if (f->status != FRAME_OK) {
         /* Not executed; answered only where level 2 and register 18 bit 4 allow. */
         if (!broadcast && l->level == 2u && (l->report & UNLOAD_REPORT_CHECKSUM))
-            link_answer(s, id, (uint8_t)(s->live_err | ERR_CHECKSUM), 0, 0, at);
+            link_answer(s, id, (uint8_t)(safety_err(&s->safety) | ERR_CHECKSUM), 0, 0, at);
         return;
     }
 
-    safety_packet_seen(s); /* §7.1: any valid packet for this servo feeds the heartbeat */
+    safety_packet_seen(&s->safety); /* §7.1: any valid packet for this servo feeds the heartbeat */
     uint8_t ins = f->buf[2];
     uint8_t n = (uint8_t)(f->buf[1] - 2u); /* LEN counts INS and CHK */
     struct result res = {0};
@@ -239,11 +247,11 @@ void dispatch_frame(struct servo *s, const struct frame *f)
     if (res.err & ERR_INSTRUCTION) {
         if (!(l->report & UNLOAD_REPORT_INSTRUCTION))
             return; /* not reported: silence, so the host never mistakes it for success */
-        link_answer(s, id, (uint8_t)(s->live_err | ERR_INSTRUCTION), 0, 0, at);
+        link_answer(s, id, (uint8_t)(safety_err(&s->safety) | ERR_INSTRUCTION), 0, 0, at);
         return;
     }
     if (broadcast) /* §4.1: one answer slot per ID, so a whole bus answers in turn */
         at += (uint32_t)l->id * link_bytes_us(l->baud, 9u);
-    uint8_t err = ins == INS_PING ? res.err : (uint8_t)(s->live_err | res.err);
+    uint8_t err = ins == INS_PING ? res.err : (uint8_t)(safety_err(&s->safety) | res.err);
     link_answer(s, broadcast ? l->id : id, err, res.data, res.n, at);
 }

@@ -31,8 +31,11 @@ uint32_t frame_rx_gap_us(uint32_t baud)
 void frame_rx_init(struct frame_rx *rx, uint32_t baud)
 {
     memset(rx, 0, sizeof *rx);
-    for (uint8_t i = 0; i < FRAME_SLOTS; i++)
+    for (uint8_t i = 0; i < FRAME_SLOTS; i++) {
+        rx->slot[i].buf = rx->slot_buf[i];
         rx->free_ring[i] = i;
+    }
+    rx->slot[FRAME_BLOCK].buf = rx->block_buf;
     rx->free_head = FRAME_SLOTS;
     frame_rx_set_baud(rx, baud);
 }
@@ -92,7 +95,7 @@ static bool parser_to_block(struct frame_rx *rx, struct frame_parser *p)
     rx->block_busy = 1;
     /* A loop, not memcpy: this runs in the interrupt, from RAM (memcpy is in flash). */
     for (uint16_t i = 0; i < p->pos; i++)
-        rx->block.buf[i] = rx->slot[p->slot].buf[i];
+        rx->block_buf[i] = rx->slot_buf[p->slot][i];
     slot_drop(rx, p->slot);
     p->slot = FRAME_BLOCK;
     p->need = FRAME_BLOCK_BYTES;
@@ -103,7 +106,7 @@ static bool parser_to_block(struct frame_rx *rx, struct frame_parser *p)
 static uint8_t parser_step(struct frame_rx *rx, struct frame_parser *p, uint8_t b,
                            uint32_t now_us)
 {
-    uint8_t *buf = p->slot == FRAME_BLOCK ? rx->block.buf : rx->slot[p->slot].buf;
+    uint8_t *buf = rx->slot[p->slot].buf;
     buf[p->pos++] = b;
     if (p->pos == 1u) { /* ID */
         p->sum = b;
@@ -116,30 +119,23 @@ static uint8_t parser_step(struct frame_rx *rx, struct frame_parser *p, uint8_t 
     }
     if (p->pos < p->need) {
         p->sum = (uint8_t)(p->sum + b);
-        if (p->pos == 5u && p->need == FRAME_BYTES && buf[2] == 0xFFu && buf[3] == 0xFEu &&
-            b == 0x02u && !parser_to_block(rx, p))
+        if (p->pos == 5u && p->need == FRAME_BYTES && buf[2] == INS_CUSTOM &&
+            buf[3] == PROTO_UPDATE_SUB_BLOCK && b == PROTO_UPDATE_TYPE_DATA &&
+            !parser_to_block(rx, p))
             return STEP_INVALID;
         return STEP_MORE;
     }
-    uint8_t status = b == p->sum ? FRAME_OK : FRAME_BAD_CHECKSUM;
-    if (p->slot == FRAME_BLOCK) {
-        rx->block.len = p->need;
-        rx->block.end_us = now_us;
-        rx->block.status = status;
-    } else {
-        struct frame *f = &rx->slot[p->slot];
-        f->len = p->need;
-        f->end_us = now_us;
-        f->status = status;
-    }
+    struct frame *f = &rx->slot[p->slot];
+    f->len = p->need;
+    f->end_us = now_us;
+    f->status = b == p->sum ? FRAME_OK : FRAME_BAD_CHECKSUM;
     return STEP_DONE;
 }
 
 /* ISR: status of the frame a parser just completed. */
 static bool parser_good(const struct frame_rx *rx, const struct frame_parser *p)
 {
-    uint8_t status = p->slot == FRAME_BLOCK ? rx->block.status : rx->slot[p->slot].status;
-    return status == FRAME_OK;
+    return rx->slot[p->slot].status == FRAME_OK;
 }
 
 /* ISR: drop every shadow (they were the payload of a good frame). */
@@ -261,12 +257,7 @@ static uint8_t oldest(struct frame_rx *rx)
 const struct frame *frame_rx_peek(struct frame_rx *rx)
 {
     uint8_t s = oldest(rx);
-    return s < FRAME_SLOTS ? &rx->slot[s] : NULL;
-}
-
-const struct frame_block *frame_rx_peek_block(struct frame_rx *rx)
-{
-    return oldest(rx) == FRAME_BLOCK ? &rx->block : NULL;
+    return s == NO_SLOT ? NULL : &rx->slot[s];
 }
 
 void frame_rx_release(struct frame_rx *rx)

@@ -69,3 +69,8 @@ bool link_poll(struct servo *s, uint32_t now_us, bool rx_idle)
         return true;
     }
 }
+
+uint32_t link_reply_at(const struct link *l, uint32_t end_us)
+{
+    return end_us + (uint32_t)l->delay * LINK_DELAY_UNIT_US;
+}

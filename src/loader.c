@@ -7,17 +7,16 @@
 #include "proto.h"
 #include "store.h"
 
-uint8_t loader_update_frame(struct servo *s, const uint8_t *buf, uint16_t len, bool chk_ok,
-                            uint32_t end_us)
+uint8_t loader_update_frame(struct servo *s, const struct frame *f)
 {
     struct link *l = &s->link;
-    if (buf[0] != l->id)
+    if (f->buf[0] != l->id)
         return UPDATE_GO_ON; /* §10 frames go to one ID; a broadcast is not for us */
     uint8_t ans[2], n;
-    uint8_t out = update_frame(&s->update, s->hal, s->board->model_number, buf, len, chk_ok,
-                               end_us, ans, &n);
+    uint8_t out = update_frame(&s->update, s->hal, s->board->model_number, f->buf, f->len,
+                               f->status == FRAME_OK, f->end_us, ans, &n);
     /* Always answered (whatever register 16 says), ERR 0, after the return delay. */
-    link_answer(s, l->id, 0, ans, n, end_us + (uint32_t)l->delay * 500u);
+    link_answer(s, l->id, 0, ans, n, link_reply_at(l, f->end_us));
     if (out == UPDATE_RESTART)
         s->restart = 1;
     return out;
@@ -59,30 +58,4 @@ void loader_init(struct servo *s, const struct board *b, struct hal *hal)
     s->regs.mem[REG_RETURN_DELAY] = set.delay;
     frame_rx_init(&s->rx, link_baud(b, set.baud_code));
     link_latch(s);
-}
-
-void loader_poll(struct servo *s)
-{
-    uint32_t now = hal_clock_us(s->hal);
-    uint32_t irq = hal_irq_save(s->hal);
-    bool rx_idle = frame_rx_idle(&s->rx, now);
-    hal_irq_restore(s->hal, irq);
-    if (!link_poll(s, now, rx_idle))
-        return;
-    if (s->restart) {
-        hal_restart(s->hal); /* the ACK is out: the bootloader installs the image */
-        return;
-    }
-    (void)update_active(&s->update, now);
-    const struct frame *f = frame_rx_peek(&s->rx);
-    const struct frame_block *blk = frame_rx_peek_block(&s->rx);
-    if (!f && !blk)
-        return;
-    /* Both have the same fields; update mode answers only §10 frames. */
-    const uint8_t *buf = f ? f->buf : blk->buf;
-    uint16_t len = f ? f->len : blk->len;
-    if (update_is_frame(buf, len))
-        (void)loader_update_frame(s, buf, len, (f ? f->status : blk->status) == FRAME_OK,
-                                  f ? f->end_us : blk->end_us);
-    frame_rx_release(&s->rx);
 }

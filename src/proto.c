@@ -29,3 +29,8 @@ uint16_t proto_build_packet(uint8_t *out, uint8_t id, uint8_t first, const uint8
     out[5u + n] = proto_sum(&out[2], (uint16_t)(n + 3u));
     return (uint16_t)(n + 6u);
 }
+
+bool proto_speed_is_stop(uint16_t speed)
+{
+    return (speed & PROTO_SPEED_MAGNITUDE) == 0u;
+}

@@ -10,9 +10,9 @@
 #endif
 
 #if REGS_WITH_TEXT
-#define TEXT(name, doc) , name, doc
+#define TEXT(unit, flags, name, doc) , unit, flags, name, doc
 #else
-#define TEXT(name, doc)
+#define TEXT(unit, flags, name, doc)
 #endif
 
 #define R REG_ACCESS_R
@@ -21,84 +21,83 @@
 #define EE REG_AREA_EE
 #define RAM REG_AREA_RAM
 
-/* size, access, area, variants, default source, unit, flags, default, min, max */
+/* size, access, area, variants, default source, default, min, max, then for the host
+ * tools (REGS_WITH_TEXT) unit, flags, name and doc */
 const struct reg_desc regs_table[REGS_SIZE] = {
-    [REG_MODEL_NUMBER] = {2, R, EE, REG_V_ALL, REG_DEF_MODEL, REG_UNIT_NONE, 0, 0, 0, 0xFFFF
-        TEXT("model_number", "Model number of the board.")},
-    [REG_FIRMWARE_VERSION] = {1, R, EE, REG_V_ALL, REG_DEF_FIRMWARE, REG_UNIT_NONE, 0, 0, 0, 0xFF
-        TEXT("firmware_version", "Firmware version of the running image.")},
-    [REG_ID] = {1, RW, EE, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, REGS_FACTORY_ID, 0, PROTO_ID_MAX
-        TEXT("id", "Bus ID. Takes effect after the answer to the write has been sent.")},
-    [REG_BAUD_RATE] = {1, RW, EE, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, 0, 0, 10
-        TEXT("baud_rate", "Baud rate code (0 = the variant's default, see the baud table). "
+    [REG_MODEL_NUMBER] = {2, R, EE, REG_V_ALL, REG_DEF_MODEL, 0, 0, 0xFFFF
+        TEXT(REG_UNIT_NONE, 0, "model_number", "Model number of the board.")},
+    [REG_FIRMWARE_VERSION] = {1, R, EE, REG_V_ALL, REG_DEF_FIRMWARE, 0, 0, 0xFF
+        TEXT(REG_UNIT_NONE, 0, "firmware_version", "Firmware version of the running image.")},
+    [REG_ID] = {1, RW, EE, REG_V_ALL, REG_DEF_CONST, REGS_FACTORY_ID, 0, PROTO_ID_MAX
+        TEXT(REG_UNIT_NONE, 0, "id", "Bus ID. Takes effect after the answer to the write has been sent.")},
+    [REG_BAUD_RATE] = {1, RW, EE, REG_V_ALL, REG_DEF_CONST, 0, 0, 10
+        TEXT(REG_UNIT_NONE, 0, "baud_rate", "Baud rate code (0 = the variant's default, see the baud table). "
                           "Takes effect after the answer has been sent.")},
-    [REG_RETURN_DELAY] = {1, RW, EE, REG_V_ALL, REG_DEF_RETURN_DELAY, REG_UNIT_DELAY, 0, 0, 0, 255
-        TEXT("return_delay", "Delay between the last request byte and the answer.")},
-    [REG_CW_LIMIT] = {2, RW, EE, REG_V_ALL, REG_DEF_CONST, REG_UNIT_POSITION, 0, 0, 0, 0x7FFF
-        TEXT("cw_angle_limit", "Lower angle limit. Must not exceed the CCW limit. Both limits 0 "
+    [REG_RETURN_DELAY] = {1, RW, EE, REG_V_ALL, REG_DEF_RETURN_DELAY, 0, 0, 255
+        TEXT(REG_UNIT_DELAY, 0, "return_delay", "Delay between the last request byte and the answer.")},
+    [REG_CW_LIMIT] = {2, RW, EE, REG_V_ALL, REG_DEF_CONST, 0, 0, 0x7FFF
+        TEXT(REG_UNIT_POSITION, 0, "cw_angle_limit", "Lower angle limit. Must not exceed the CCW limit. Both limits 0 "
                                "= speed mode.")},
-    [REG_CCW_LIMIT] = {2, RW, EE, REG_V_ALL, REG_DEF_MAX_ANGLE, REG_UNIT_POSITION, 0, 0, 0, 0x7FFF
-        TEXT("ccw_angle_limit", "Upper angle limit; factory value is the board's range.")},
-    [REG_TEMPERATURE_LIMIT] = {1, RW, EE, REG_V_ALL, REG_DEF_CONST, REG_UNIT_TEMP, 0, 80, 0, 255
-        TEXT("temperature_limit", "Over-temperature threshold.")},
-    [REG_CURRENT_LIMIT] = {1, RW, EE, REG_V_ALL, REG_DEF_CURRENT, REG_UNIT_CURRENT, 0, 0, 0, 255
-        TEXT("current_limit", "Over-current threshold.")},
-    [REG_RESOLUTION] = {1, RW, EE, REG_V_ALL, REG_DEF_CONST, REG_UNIT_RES, 0, 10, 1, 255
-        TEXT("angle_resolution", "Size of one position unit. Changing it stops motion, clears "
+    [REG_CCW_LIMIT] = {2, RW, EE, REG_V_ALL, REG_DEF_MAX_ANGLE, 0, 0, 0x7FFF
+        TEXT(REG_UNIT_POSITION, 0, "ccw_angle_limit", "Upper angle limit; factory value is the board's range.")},
+    [REG_TEMPERATURE_LIMIT] = {1, RW, EE, REG_V_ALL, REG_DEF_CONST, 80, 0, 255
+        TEXT(REG_UNIT_TEMP, 0, "temperature_limit", "Over-temperature threshold.")},
+    [REG_CURRENT_LIMIT] = {1, RW, EE, REG_V_ALL, REG_DEF_CURRENT, 0, 0, 255
+        TEXT(REG_UNIT_CURRENT, 0, "current_limit", "Over-current threshold.")},
+    [REG_RESOLUTION] = {1, RW, EE, REG_V_ALL, REG_DEF_CONST, 10, 1, 255
+        TEXT(REG_UNIT_RES, 0, "angle_resolution", "Size of one position unit. Changing it stops motion, clears "
                                  "the trajectory and rescales the limits and the goal.")},
-    [REG_STATUS_RETURN_LEVEL] = {1, RW, EE, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, 2, 0, 2
-        TEXT("status_return_level", "0: answer PING only; 1: PING and READ; 2: everything.")},
-    [REG_HEARTBEAT_ENABLE] = {1, RW, EE, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, 1, 0, 1
-        TEXT("heartbeat_enable", "1: stop when no valid packet arrives for 500 ms.")},
-    [REG_UNLOAD_CONDITIONS] = {1, RW, EE, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, 0x7F, 0, 0x7F
-        TEXT("unload_conditions", "Bit 6 stall, 3 under-voltage, 2 over-voltage, 1 over-current, "
+    [REG_STATUS_RETURN_LEVEL] = {1, RW, EE, REG_V_ALL, REG_DEF_CONST, 2, 0, 2
+        TEXT(REG_UNIT_NONE, 0, "status_return_level", "0: answer PING only; 1: PING and READ; 2: everything.")},
+    [REG_HEARTBEAT_ENABLE] = {1, RW, EE, REG_V_ALL, REG_DEF_CONST, 1, 0, 1
+        TEXT(REG_UNIT_NONE, 0, "heartbeat_enable", "1: stop when no valid packet arrives for 500 ms.")},
+    [REG_UNLOAD_CONDITIONS] = {1, RW, EE, REG_V_ALL, REG_DEF_CONST, 0x7F, 0, 0x7F
+        TEXT(REG_UNIT_NONE, 0, "unload_conditions", "Bit 6 stall, 3 under-voltage, 2 over-voltage, 1 over-current, "
                                   "0 over-temperature: unload on it. Bit 5/4: report "
                                   "instruction/checksum errors.")},
-    [REG_HOMING_ZERO_SIDE] = {1, RW, EE, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, 1, 1, 2
-        TEXT("homing_zero_side", "1: zero at the CW (negative) end; 2: at the CCW end.")},
-    [REG_RS485_TERMINATION] = {1, RW, EE, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, 0, 0, 1
-        TEXT("rs485_termination", "1: switch the 120 ohm bus terminator on.")},
-    [REG_BASE_ACCELERATION] = {1, RW, EE, REG_V_B, REG_DEF_CONST, REG_UNIT_ACCEL, 0, 36, 0, 255
-        TEXT("base_acceleration", "Acceleration of the base (0 = no ramp).")},
-    [REG_BASE_DECELERATION] = {1, RW, EE, REG_V_B, REG_DEF_CONST, REG_UNIT_ACCEL, 0, 36, 0, 255
-        TEXT("base_deceleration", "Deceleration of the base (0 = no ramp).")},
-    [REG_HOMING] = {1, RW, RAM, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, 0, 0, 1
-        TEXT("homing", "Write 1 to start homing, 0 to stop. Reads: low nibble as written, high "
+    [REG_HOMING_ZERO_SIDE] = {1, RW, EE, REG_V_ALL, REG_DEF_CONST, 1, 1, 2
+        TEXT(REG_UNIT_NONE, 0, "homing_zero_side", "1: zero at the CW (negative) end; 2: at the CCW end.")},
+    [REG_RS485_TERMINATION] = {1, RW, EE, REG_V_ALL, REG_DEF_CONST, 0, 0, 1
+        TEXT(REG_UNIT_NONE, 0, "rs485_termination", "1: switch the 120 ohm bus terminator on.")},
+    [REG_BASE_ACCELERATION] = {1, RW, EE, REG_V_B, REG_DEF_CONST, 36, 0, 255
+        TEXT(REG_UNIT_ACCEL, 0, "base_acceleration", "Acceleration of the base (0 = no ramp).")},
+    [REG_BASE_DECELERATION] = {1, RW, EE, REG_V_B, REG_DEF_CONST, 36, 0, 255
+        TEXT(REG_UNIT_ACCEL, 0, "base_deceleration", "Deceleration of the base (0 = no ramp).")},
+    [REG_HOMING] = {1, RW, RAM, REG_V_ALL, REG_DEF_CONST, 0, 0, 1
+        TEXT(REG_UNIT_NONE, 0, "homing", "Write 1 to start homing, 0 to stop. Reads: low nibble as written, high "
                        "nibble 0 never, 1 running, 2 done, 3 failed.")},
-    [REG_CLEAR_UNLOAD] = {1, W, RAM, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, 0, 1, 1
-        TEXT("clear_unload", "Write 1 to clear a latched protection unload. Reads 0.")},
-    [REG_GOAL_POSITION] = {2, RW, RAM, REG_V_ALL, REG_DEF_CONST, REG_UNIT_POSITION, 0, 0, 0, 0xFFFF
-        TEXT("goal_position", "Target of a move, clamped to the angle limits. Starts equal to "
+    [REG_CLEAR_UNLOAD] = {1, W, RAM, REG_V_ALL, REG_DEF_CONST, 0, 1, 1
+        TEXT(REG_UNIT_NONE, 0, "clear_unload", "Write 1 to clear a latched protection unload. Reads 0.")},
+    [REG_GOAL_POSITION] = {2, RW, RAM, REG_V_ALL, REG_DEF_CONST, 0, 0, 0xFFFF
+        TEXT(REG_UNIT_POSITION, 0, "goal_position", "Target of a move, clamped to the angle limits. Starts equal to "
                               "the present position. Base: relative to the present angle.")},
-    [REG_MOVING_SPEED] = {2, RW, RAM, REG_V_ALL, REG_DEF_CONST, REG_UNIT_DIR_SPEED, 0, 0, 0, 0xFFFF
-        TEXT("moving_speed", "Cruise speed; in speed mode the turning speed. 0 stops.")},
-    [REG_ACCELERATION] = {1, RW, RAM, REG_V_NOT_B, REG_DEF_CONST, REG_UNIT_ACCEL, 0, 36, 0, 255
-        TEXT("acceleration", "Acceleration (0 = no ramp).")},
-    [REG_DECELERATION] = {1, RW, RAM, REG_V_NOT_B, REG_DEF_CONST, REG_UNIT_ACCEL, 0, 36, 0, 255
-        TEXT("deceleration", "Deceleration (0 = no ramp).")},
-    [REG_PRESENT_POSITION] = {2, R, RAM, REG_V_WH, REG_DEF_CONST, REG_UNIT_POSITION, 0, 0, 0, 0xFFFF
-        TEXT("present_position", "Absolute present position.")},
-    [REG_PRESENT_SPEED] = {2, R, RAM, REG_V_ALL, REG_DEF_CONST, REG_UNIT_SPEED, REG_FLAG_SIGNED, 0,
-        0, 0xFFFF
-        TEXT("present_speed", "Present speed, positive in the positive direction.")},
-    [REG_TURNED_ANGLE] = {2, R, RAM, REG_V_NOT_WH, REG_DEF_CONST, REG_UNIT_POSITION,
-        REG_FLAG_SIGNED, 0, 0, 0xFFFF
-        TEXT("turned_angle", "Turned angle, wrapping; relative on base and foot, absolute on "
+    [REG_MOVING_SPEED] = {2, RW, RAM, REG_V_ALL, REG_DEF_CONST, 0, 0, 0xFFFF
+        TEXT(REG_UNIT_DIR_SPEED, 0, "moving_speed", "Cruise speed; in speed mode the turning speed. 0 stops.")},
+    [REG_ACCELERATION] = {1, RW, RAM, REG_V_NOT_B, REG_DEF_CONST, 36, 0, 255
+        TEXT(REG_UNIT_ACCEL, 0, "acceleration", "Acceleration (0 = no ramp).")},
+    [REG_DECELERATION] = {1, RW, RAM, REG_V_NOT_B, REG_DEF_CONST, 36, 0, 255
+        TEXT(REG_UNIT_ACCEL, 0, "deceleration", "Deceleration (0 = no ramp).")},
+    [REG_PRESENT_POSITION] = {2, R, RAM, REG_V_WH, REG_DEF_CONST, 0, 0, 0xFFFF
+        TEXT(REG_UNIT_POSITION, 0, "present_position", "Absolute present position.")},
+    [REG_PRESENT_SPEED] = {2, R, RAM, REG_V_ALL, REG_DEF_CONST, 0, 0, 0xFFFF
+        TEXT(REG_UNIT_SPEED, REG_FLAG_SIGNED, "present_speed", "Present speed, positive in the positive direction.")},
+    [REG_TURNED_ANGLE] = {2, R, RAM, REG_V_NOT_WH, REG_DEF_CONST, 0, 0, 0xFFFF
+        TEXT(REG_UNIT_POSITION, REG_FLAG_SIGNED, "turned_angle", "Turned angle, wrapping; relative on base and foot, absolute on "
                              "the arm.")},
-    [REG_MOVING] = {1, R, RAM, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, 0, 0, 1
-        TEXT("moving", "1 while a motion runs.")},
-    [REG_BRAKE] = {1, RW, RAM, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, 0, 0, 1
-        TEXT("brake", "1: stop at once and hold.")},
-    [REG_REGISTERED] = {1, R, RAM, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, 0, 0, 1
-        TEXT("registered", "1 while a REG WRITE is held.")},
-    [REG_PRESENT_TEMPERATURE] = {1, R, RAM, REG_V_ALL, REG_DEF_CONST, REG_UNIT_TEMP, 0, 0, 0, 255
-        TEXT("present_temperature", "Present temperature.")},
-    [REG_SLEEP] = {1, RW, RAM, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, 0, 0, 1
-        TEXT("sleep", "1: torque off, low power; the servo still answers.")},
-    [REG_PHOTO_SWITCHES] = {1, R, RAM, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, 0, 0, 3
-        TEXT("photo_switches", "Bit 0 switch 1, bit 1 switch 2.")},
-    [REG_MOVE_WITHOUT_REFERENCE] = {1, RW, RAM, REG_V_ALL, REG_DEF_CONST, REG_UNIT_NONE, 0, 0, 0, 1
-        TEXT("move_without_reference", "1: allow speed mode before homing has succeeded.")},
+    [REG_MOVING] = {1, R, RAM, REG_V_ALL, REG_DEF_CONST, 0, 0, 1
+        TEXT(REG_UNIT_NONE, 0, "moving", "1 while a motion runs.")},
+    [REG_BRAKE] = {1, RW, RAM, REG_V_ALL, REG_DEF_CONST, 0, 0, 1
+        TEXT(REG_UNIT_NONE, 0, "brake", "1: stop at once and hold.")},
+    [REG_REGISTERED] = {1, R, RAM, REG_V_ALL, REG_DEF_CONST, 0, 0, 1
+        TEXT(REG_UNIT_NONE, 0, "registered", "1 while a REG WRITE is held.")},
+    [REG_PRESENT_TEMPERATURE] = {1, R, RAM, REG_V_ALL, REG_DEF_CONST, 0, 0, 255
+        TEXT(REG_UNIT_TEMP, 0, "present_temperature", "Present temperature.")},
+    [REG_SLEEP] = {1, RW, RAM, REG_V_ALL, REG_DEF_CONST, 0, 0, 1
+        TEXT(REG_UNIT_NONE, 0, "sleep", "1: torque off, low power; the servo still answers.")},
+    [REG_PHOTO_SWITCHES] = {1, R, RAM, REG_V_ALL, REG_DEF_CONST, 0, 0, 3
+        TEXT(REG_UNIT_NONE, 0, "photo_switches", "Bit 0 switch 1, bit 1 switch 2.")},
+    [REG_MOVE_WITHOUT_REFERENCE] = {1, RW, RAM, REG_V_ALL, REG_DEF_CONST, 0, 0, 1
+        TEXT(REG_UNIT_NONE, 0, "move_without_reference", "1: allow speed mode before homing has succeeded.")},
 };
 
 bool regs_applicable(const struct board *b, uint8_t addr)
@@ -257,4 +256,9 @@ uint16_t regs_present_position(const struct regs *r)
 {
     return regs_get(r, regs_applicable(r->board, REG_PRESENT_POSITION) ? REG_PRESENT_POSITION
                                                                        : REG_TURNED_ANGLE);
+}
+
+uint8_t regs_ramp_addr(const struct board *b)
+{
+    return b->variant == VARIANT_BASE ? REG_BASE_ACCELERATION : REG_ACCELERATION;
 }

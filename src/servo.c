@@ -40,10 +40,22 @@ void servo_rx_isr(struct servo *s, uint8_t byte)
     frame_rx_byte(&s->rx, byte, hal_clock_us(s->hal));
 }
 
-/* One pass of the main loop but the store's commit. */
+/* The bootloader compiles this file too, for its update mode: there the application's
+ * half of the loop is constant-false and the compiler drops it, with every call into
+ * motion, dispatch and the store's writer (none of which the bootloader links). The
+ * same idiom as Zephyr's IS_ENABLED(). */
+#ifdef SERVO_BOOTLOADER
+#define APPLICATION(s) false
+#else
+#define APPLICATION(s) ((s)->in_loader == 0u)
+#endif
+
+/* One pass of the main loop, the store's commit aside. */
 static void servo_pass(struct servo *s, uint32_t now)
 {
-    motion_poll(s, now);
+    bool app = APPLICATION(s);
+    if (app)
+        motion_poll(s, now);
     /* The control tick and the bus handling both run in this loop, so feeding here once
      * per pass proves both alive: a hang in either stops the feeding. */
     hal_watchdog_feed(s->hal);
@@ -52,24 +64,26 @@ static void servo_pass(struct servo *s, uint32_t now)
     hal_irq_restore(s->hal, irq);
     bool link_idle = link_poll(s, now, rx_idle);
     /* Flash work (an erase stalls the CPU) only while nothing moves and the bus rests. */
-    store_poll(&s->store, &s->regs, now, link_idle && rx_idle && !s->regs.mem[REG_MOVING]);
+    if (app)
+        store_poll(&s->store, &s->regs, now, link_idle && rx_idle && !s->regs.mem[REG_MOVING]);
     if (!link_idle)
         return;
     if (s->restart) { /* a verified update: its ACK is out */
-        (void)regs_take_ee_changed(&s->regs); /* the flush commits whatever differs */
-        store_flush(&s->store, &s->regs, now);
-        hal_restart(s->hal);
+        if (app) {
+            (void)regs_take_ee_changed(&s->regs); /* the flush commits whatever differs */
+            store_flush(&s->store, &s->regs, now);
+        }
+        hal_restart(s->hal); /* the bootloader installs the staged image */
         return;
     }
     (void)update_active(&s->update, now); /* a silent session times out */
     const struct frame *f = frame_rx_peek(&s->rx);
-    const struct frame_block *blk = frame_rx_peek_block(&s->rx);
-    if (f)
-        dispatch_frame(s, f);
-    else if (blk)
-        (void)loader_update_frame(s, blk->buf, blk->len, blk->status == FRAME_OK, blk->end_us);
-    else
+    if (!f)
         return;
+    if (app)
+        dispatch_frame(s, f);
+    else if (update_is_frame(f->buf, f->len)) /* update mode answers §10 frames only */
+        (void)loader_update_frame(s, f);
     frame_rx_release(&s->rx);
     if (s->link.state == LINK_IDLE)
         link_latch(s); /* no answer: a new ID or baud applies at once */
@@ -83,7 +97,7 @@ void servo_poll(struct servo *s)
      * the end of the pass: a frame's answer is only scheduled by dispatch and starts in a
      * later pass (link_poll), so an answered write within the commit budget is in flash
      * before the first byte of its answer leaves. Nothing changed: no store work at all. */
-    if (regs_take_ee_changed(&s->regs))
+    if (APPLICATION(s) && regs_take_ee_changed(&s->regs))
         store_sync(&s->store, &s->regs, now);
 }
 
@@ -93,12 +107,4 @@ void servo_power_on(struct servo *s, const struct board *b, struct hal *hal)
         servo_init(s, b, hal);
     else
         loader_init(s, b, hal);
-}
-
-void servo_step(struct servo *s)
-{
-    if (s->in_loader)
-        loader_poll(s);
-    else
-        servo_poll(s);
 }

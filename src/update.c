@@ -6,18 +6,18 @@
 /* Frame sizes, ID to CHK: header and data blocks have a fixed shape. */
 #define ENTER_BYTES 5u                                   /* ID 03 FF FC CHK */
 #define EOF_BYTES 6u                                     /* ID 04 FF FE 04 CHK */
-#define HEADER_BYTES (7u + UPDATE_HEADER_DATA + 3u)      /* LEN 0x88 */
-#define DATA_BYTES (7u + UPDATE_BLOCK_DATA + 3u)         /* LEN 0xFF, 1031 + CHK */
+#define HEADER_BYTES (7u + PROTO_UPDATE_HEADER_DATA + 3u)      /* LEN 0x88 */
+#define DATA_BYTES PROTO_UPDATE_DATA_FRAME                   /* LEN 0xFF, 1031 + CHK */
 #define OFF_TYPE 4u
 #define OFF_NUM 5u
 #define OFF_DATA 7u
 
-_Static_assert(UPDATE_BLOCK_DATA == HAL_FLASH_PAGE_BYTES, "data block n is staging page n-1");
+_Static_assert(PROTO_UPDATE_BLOCK_DATA == HAL_FLASH_PAGE_BYTES, "data block n is staging page n-1");
 
 bool update_is_frame(const uint8_t *buf, uint16_t len)
 {
     return len >= ENTER_BYTES && buf[2] == 0xFFu &&
-           (buf[3] == UPDATE_SUB_ENTER || buf[3] == UPDATE_SUB_BLOCK);
+           (buf[3] == PROTO_UPDATE_SUB_ENTER || buf[3] == PROTO_UPDATE_SUB_BLOCK);
 }
 
 /* A header or data block of the right shape: LEN, block number and its complement, and
@@ -53,7 +53,7 @@ static uint8_t cancel(struct update *u, uint8_t ans[2])
 static uint8_t on_header(struct update *u, struct hal *hal, uint16_t model, const uint8_t *d,
                          uint8_t ans[2], uint8_t *n)
 {
-    if (all_zero(d, UPDATE_HEADER_DATA)) {
+    if (all_zero(d, PROTO_UPDATE_HEADER_DATA)) {
         if (u->state != UPDATE_EOF) { /* an empty batch: nothing to install */
             u->state = UPDATE_IDLE;
             ans[0] = UPDATE_ACK;
@@ -78,7 +78,7 @@ static uint8_t on_header(struct update *u, struct hal *hal, uint16_t model, cons
             (image_marked(hal) && (!hal_flash_erase(hal, IMAGE_MARK_PAGE) || image_marked(hal))))
             return cancel(u, ans);
         u->length = length;
-        u->blocks = (uint8_t)((length + UPDATE_BLOCK_DATA - 1u) / UPDATE_BLOCK_DATA);
+        u->blocks = (uint8_t)((length + PROTO_UPDATE_BLOCK_DATA - 1u) / PROTO_UPDATE_BLOCK_DATA);
         u->next = 1;
         u->state = UPDATE_DATA;
         ans[0] = UPDATE_ACK;
@@ -131,7 +131,7 @@ uint8_t update_frame(struct update *u, struct hal *hal, uint16_t model, const ui
     if (!chk_ok)
         return UPDATE_GO_ON;
     u->last_us = now_us;
-    if (buf[3] == UPDATE_SUB_ENTER) {
+    if (buf[3] == PROTO_UPDATE_SUB_ENTER) {
         if (len != ENTER_BYTES || buf[1] != 3u)
             return UPDATE_GO_ON;
         u->state = UPDATE_ENTERED;
@@ -141,25 +141,25 @@ uint8_t update_frame(struct update *u, struct hal *hal, uint16_t model, const ui
     }
     if (len < EOF_BYTES)
         return UPDATE_GO_ON;
-    bool header = buf[OFF_TYPE] == UPDATE_TYPE_HEADER &&
+    bool header = buf[OFF_TYPE] == PROTO_UPDATE_TYPE_HEADER &&
                   block_intact(buf, len, HEADER_BYTES, (uint8_t)(HEADER_BYTES - 2u),
-                               UPDATE_HEADER_DATA) && buf[OFF_NUM] == 0u;
+                               PROTO_UPDATE_HEADER_DATA) && buf[OFF_NUM] == 0u;
     if (u->state == UPDATE_IDLE) {
         /* No session. An end of batch is ACKed all the same: it is the host resending
          * the last frame of a session whose ACK it missed while the servo restarted. */
-        ans[0] = header && all_zero(&buf[OFF_DATA], UPDATE_HEADER_DATA) ? UPDATE_ACK : UPDATE_CAN;
+        ans[0] = header && all_zero(&buf[OFF_DATA], PROTO_UPDATE_HEADER_DATA) ? UPDATE_ACK : UPDATE_CAN;
         return UPDATE_GO_ON;
     }
     switch (buf[OFF_TYPE]) {
-    case UPDATE_TYPE_HEADER:
+    case PROTO_UPDATE_TYPE_HEADER:
         if (!header)
             return UPDATE_GO_ON;
         return on_header(u, hal, model, &buf[OFF_DATA], ans, n);
-    case UPDATE_TYPE_DATA:
-        if (!block_intact(buf, len, DATA_BYTES, 0xFFu, UPDATE_BLOCK_DATA))
+    case PROTO_UPDATE_TYPE_DATA:
+        if (!block_intact(buf, len, DATA_BYTES, 0xFFu, PROTO_UPDATE_BLOCK_DATA))
             return UPDATE_GO_ON;
         return on_data(u, hal, model, buf[OFF_NUM], &buf[OFF_DATA], ans);
-    case UPDATE_TYPE_EOF:
+    case PROTO_UPDATE_TYPE_EOF:
         if (len != EOF_BYTES || buf[1] != 4u)
             return UPDATE_GO_ON;
         return on_eof(u, ans, n);

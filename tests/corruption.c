@@ -141,9 +141,9 @@ static bool send(const uint8_t *b, uint32_t n, const uint8_t *want, uint32_t wn)
         bool dispatched = servo.rx.ready_tail != tail;
         if (dispatched) {
             uint8_t e = servo.rx.ready[tail & (FRAME_READY - 1u)];
-            const struct frame *f = &servo.rx.slot[e < FRAME_SLOTS ? e : 0];
+            const struct frame *f = &servo.rx.slot[e];
             if (e == FRAME_BLOCK) /* a corrupted byte made a §10 data block: never valid */
-                escape = escape || servo.rx.block.status == FRAME_OK;
+                escape = escape || f->status == FRAME_OK;
             else if (f->status == FRAME_OK &&
                 (f->len != wn - 2u || memcmp(f->buf, &want[2], f->len) != 0))
                 escape = true;

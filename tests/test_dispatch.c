@@ -31,6 +31,7 @@ static struct {
     uint32_t traj_action_calls;
     uint32_t reset_calls;
     uint32_t torque_off_calls;
+    uint8_t live_err; /* what the safety layer reports */
 } fake;
 
 void motion_poll(struct servo *s, uint32_t now_us)
@@ -39,9 +40,15 @@ void motion_poll(struct servo *s, uint32_t now_us)
     (void)now_us;
 }
 
-void safety_packet_seen(struct servo *s)
+void safety_packet_seen(struct safety *sf)
 {
-    (void)s;
+    (void)sf;
+}
+
+uint8_t safety_err(const struct safety *sf)
+{
+    (void)sf;
+    return fake.live_err;
 }
 
 void motion_init(struct servo *s)
@@ -80,12 +87,18 @@ uint8_t motion_traj_action(struct servo *s)
     return fake.result;
 }
 
-uint8_t motion_custom_move(struct servo *s, const struct custom_move *m)
+uint8_t motion_custom_allowed(const struct servo *s, const struct custom_move *m)
+{
+    (void)s;
+    (void)m;
+    return fake.result;
+}
+
+void motion_custom_move(struct servo *s, const struct custom_move *m)
 {
     (void)s;
     fake.custom_calls++;
     fake.custom = *m;
-    return fake.result;
 }
 
 void motion_reset(struct servo *s)
@@ -216,7 +229,7 @@ static void ping_answer_format(void **state)
     const uint8_t want[] = {0xD5, 0x5D, 0x01, 0x03, 0x01, 0x00, 0x05};
     assert_answer(cmd(1, INS_PING, 0, 0), want, sizeof want);
     /* The ERR byte after 0x01 shows the live condition. */
-    s.live_err = ERR_OVER_TEMPERATURE;
+    fake.live_err = ERR_OVER_TEMPERATURE;
     const uint8_t hot[] = {0xD5, 0x5D, 0x01, 0x03, 0x01, 0x01, 0x06};
     assert_answer(cmd(1, INS_PING, 0, 0), hot, sizeof hot);
 }
@@ -716,7 +729,7 @@ static void instruction_report_bit_off_means_no_bit_5(void **state)
 static void live_error_bits_in_answers(void **state)
 {
     (void)state;
-    s.live_err = ERR_OVER_VOLTAGE | ERR_STALL;
+    fake.live_err = ERR_OVER_VOLTAGE | ERR_STALL;
     assert_status(write1(1, REG_RETURN_DELAY, 1), 1, ERR_OVER_VOLTAGE | ERR_STALL);
     assert_status(write1(1, REG_MOVING, 1), 1, ERR_OVER_VOLTAGE | ERR_STALL | ERR_INSTRUCTION);
     struct answer a = read_cmd(1, REG_ID, 1);
@@ -739,7 +752,9 @@ static void dispatch_frame_schedules_answer(void **state)
 {
     (void)state;
     struct frame f;
+    uint8_t buf[FRAME_BYTES];
     memset(&f, 0, sizeof f);
+    f.buf = buf;
     const uint8_t body[] = {0x01, 0x04, 0x02, 0x03, 0x01, 0x0B}; /* READ ID */
     memcpy(f.buf, body, sizeof body);
     f.len = sizeof body;

@@ -15,7 +15,8 @@
 #define MAX_GOT 64u
 
 struct got {
-    struct frame f[MAX_GOT];
+    struct frame f[MAX_GOT]; /* copies, each with its own bytes (the receiver reuses its) */
+    uint8_t buf[MAX_GOT][FRAME_BLOCK_BYTES];
     uint32_t n;
 };
 
@@ -43,7 +44,10 @@ static void poll_at(uint32_t t)
     const struct frame *f;
     while ((f = frame_rx_peek(&rx)) != 0) {
         assert_true(got.n < MAX_GOT);
-        got.f[got.n++] = *f;
+        got.f[got.n] = *f;
+        memcpy(got.buf[got.n], f->buf, f->len);
+        got.f[got.n].buf = got.buf[got.n];
+        got.n++;
         frame_rx_release(&rx);
     }
 }

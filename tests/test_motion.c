@@ -109,7 +109,9 @@ static void w_limits(uint16_t cw, uint16_t ccw)
 static uint8_t cmd(uint8_t ins, const uint8_t *p, uint8_t n)
 {
     static struct frame f;
+    static uint8_t buf[FRAME_BYTES];
     memset(&f, 0, sizeof f);
+    f.buf = buf;
     f.buf[0] = s.link.id;
     f.buf[1] = (uint8_t)(n + 2u);
     f.buf[2] = ins;
@@ -121,6 +123,8 @@ static uint8_t cmd(uint8_t ins, const uint8_t *p, uint8_t n)
     f.end_us = hal.now_us;
     s.link.state = LINK_IDLE; /* the previous answer, if any, has long been sent */
     dispatch_frame(&s, &f);
+    if (regs_take_ee_changed(&s.regs)) /* as servo_poll() does at the end of its pass */
+        store_sync(&s.store, &s.regs, hal.now_us);
     assert_int_equal(s.link.state, LINK_WAITING);
     return s.link.tx[4];
 }
@@ -289,7 +293,7 @@ static struct move_result follow_move(double speed_dps, double acc, double dec)
         fail_msg("%s: the move did not start (mode %u)", B->name, s.motion.mode);
     int64_t g = s.motion.target / PLANNER_ONE;
     assert_true(g * PLANNER_ONE == s.motion.target); /* whole counts */
-    int64_t c0 = s.motion.counts;
+    int64_t c0 = s.motion.ctl.counts;
     int dir = g > c0 ? 1 : -1;
     uint32_t t0 = hal.now_us, t_end = 0, t_out = 0;
     r.ideal_ms = ideal_ms(fabs((double)(g - c0)) / COUNTS_PER_DEG, speed_dps, acc, dec);
@@ -297,9 +301,9 @@ static struct move_result follow_move(double speed_dps, double acc, double dec)
     for (;;) {
         next_tick();
         uint32_t t = hal.now_us;
-        int64_t err = s.motion.counts - g;
+        int64_t err = s.motion.ctl.counts - g;
         if (s.motion.mode == MOTION_MOVE) {
-            double e = fabs((double)(ref_counts() - s.motion.counts));
+            double e = fabs((double)(ref_counts() - s.motion.ctl.counts));
             if (e > r.track)
                 r.track = e;
         } else if (!t_end) {
@@ -592,7 +596,7 @@ static void turned_angle_wraps(void **state)
         prev = now;
     }
     assert_int_equal(wraps, 1);
-    double deg = (double)(s.motion.counts - s.motion.zero) / COUNTS_PER_DEG;
+    double deg = (double)(s.motion.ctl.counts - s.motion.zero) / COUNTS_PER_DEG;
     assert_true(abs((int16_t)(uint16_t)(int32_t)lround(deg) - present()) <= 1);
     /* a relative goal across the wrap: stops on (angle + 500) modulo 2^16 */
     int32_t here = present();
@@ -631,12 +635,12 @@ static const char *brake_then_release_why(const char *from)
         w8(REG_BRAKE, 0);
         return why;
     }
-    int64_t c = s.motion.counts;
+    int64_t c = s.motion.ctl.counts;
     double t = travel_counts();
     run_ms(500);
-    if (llabs(s.motion.counts - c) > HOLD_COUNTS || travel_counts() - t > 2 * HOLD_COUNTS) {
+    if (llabs(s.motion.ctl.counts - c) > HOLD_COUNTS || travel_counts() - t > 2 * HOLD_COUNTS) {
         snprintf(why, sizeof why, "%s: brake from %s: does not hold (moved %lld counts)", B->name,
-                 from, (long long)(s.motion.counts - c));
+                 from, (long long)(s.motion.ctl.counts - c));
         w8(REG_BRAKE, 0);
         return why;
     }
@@ -1072,7 +1076,7 @@ static void run_trajectory(const uint16_t *a, uint8_t n, double *min_at, bool *s
     }
     for (int t = 0; t < 30000 && s.motion.mode == MOTION_TRAJ; t++) {
         next_tick();
-        double here = (double)(s.motion.counts - s.motion.zero) / COUNTS_PER_DEG;
+        double here = (double)(s.motion.ctl.counts - s.motion.zero) / COUNTS_PER_DEG;
         double sp = fabs((double)present_speed()); /* register 38, deg/s at resolution 10 */
         for (uint8_t i = 0; i < n; i++) {
             if (fabs(here - a[i]) < 0.5 && sp < min_at[i])
@@ -1227,12 +1231,12 @@ static void resolution_change_stops(void **state)
     assert_int_equal(s.motion.mode, MOTION_HOLD);
     run_ms(STOP_MS);
     double t = travel_counts();
-    int64_t c = s.motion.counts;
+    int64_t c = s.motion.ctl.counts;
     run_ms(1000);
     assert_true(travel_counts() - t < 2 * HOLD_COUNTS);
-    assert_true(llabs(s.motion.counts - c) <= HOLD_COUNTS);
+    assert_true(llabs(s.motion.ctl.counts - c) <= HOLD_COUNTS);
     /* present position in half degrees now */
-    double deg = (double)(s.motion.counts - s.motion.zero) / COUNTS_PER_DEG;
+    double deg = (double)(s.motion.ctl.counts - s.motion.zero) / COUNTS_PER_DEG;
     assert_true(abs(present() - (int32_t)lround(deg * 2)) <= 1);
     assert_int_equal(s.regs.mem[REG_MOVING], 0);
 
@@ -1300,12 +1304,12 @@ static void holds_against_gravity(void **state)
     w16(REG_GOAL_POSITION, 180);
     run_ms(4000);
     int64_t goal = (int64_t)180 * 16384 / 360 + s.motion.zero;
-    if (llabs(s.motion.counts - goal) > 2)
+    if (llabs(s.motion.ctl.counts - goal) > 2)
         fail_msg("arm under load rests %lld counts from the goal",
-                 (long long)(s.motion.counts - goal));
-    int64_t c = s.motion.counts;
+                 (long long)(s.motion.ctl.counts - goal));
+    int64_t c = s.motion.ctl.counts;
     run_ms(2000);
-    assert_true(llabs(s.motion.counts - c) <= 1);
+    assert_true(llabs(s.motion.ctl.counts - c) <= 1);
     assert_int_equal(s.regs.mem[REG_MOVING], 0);
     assert_int_equal(regs_get(&s.regs, REG_TURNED_ANGLE), 180);
     /* premise: the weight is real: with the drive off (sleep) the arm sags */

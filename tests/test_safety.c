@@ -182,25 +182,25 @@ static void each_fault_in_each_mode(void **state)
             inject(f, true);
             /* Torque off in the same tick the condition is detected. */
             uint32_t ms = 0;
-            while (!(s.live_err & fault_bit[f]) && ms < 3000u) {
+            while (!(safety_err(&s.safety) & fault_bit[f]) && ms < 3000u) {
                 run_ms(1);
                 ms++;
             }
-            assert_true(s.live_err & fault_bit[f]);
+            assert_true(safety_err(&s.safety) & fault_bit[f]);
             assert_true(torque_off());
             if (f == F_CURRENT)
                 assert_int_equal(ms, 1); /* no filter on over-current */
             /* Latched; motion refused; clearing refused while the condition lasts. */
             run_ms(100);
-            assert_true(s.live_err & fault_bit[f]);
+            assert_true(safety_err(&s.safety) & fault_bit[f]);
             assert_int_equal(write16(REG_GOAL_POSITION, 100), ERR_INSTRUCTION);
             if (f != F_BLOCKED) /* a jammed shaft that does not move is no longer stalling */
                 assert_int_equal(write8(REG_CLEAR_UNLOAD, 1), ERR_INSTRUCTION);
             inject(f, false);
             run_ms(3000);
-            assert_true(s.live_err & fault_bit[f]); /* still latched */
+            assert_true(safety_err(&s.safety) & fault_bit[f]); /* still latched */
             assert_int_equal(write8(REG_CLEAR_UNLOAD, 1), 0);
-            assert_false(s.live_err & fault_bit[f]);
+            assert_false(safety_err(&s.safety) & fault_bit[f]);
             double at = hal.motor.travel;
             run_ms(1000);
             assert_true(torque_off());
@@ -225,7 +225,7 @@ static void noise_does_not_trip(void **state)
         hal.supply_mv = (i % 20 == 0) ? 6000u : 12000u;
         run_ms(1);
     }
-    assert_int_equal(s.live_err, 0);
+    assert_int_equal(safety_err(&s.safety), 0);
     assert_int_equal(s.motion.mode, MOTION_SPEED);
 }
 
@@ -333,7 +333,7 @@ static void homing_aborts(void **state)
             assert_int_equal(write8(REG_HOMING, 1), 0);
             run_ms(phase_ms[ph]);
             if (abort_kind != 4)
-                assert_int_equal(s.motion.home_phase, ph);
+                assert_int_equal(s.motion.home.phase, ph);
             switch (abort_kind) {
             case 0: assert_int_equal(write8(REG_HOMING, 0), 0); break;
             case 1: assert_int_equal(write16(REG_MOVING_SPEED, 0), 0); break;

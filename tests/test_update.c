@@ -44,13 +44,13 @@ static uint16_t wire_frame(uint8_t *out, uint8_t id, uint8_t len_byte, const uin
 
 static uint16_t enter_frame(uint8_t *out, uint8_t id)
 {
-    static const uint8_t body[] = {0xFF, UPDATE_SUB_ENTER};
+    static const uint8_t body[] = {0xFF, PROTO_UPDATE_SUB_ENTER};
     return wire_frame(out, id, 3, body, sizeof body);
 }
 
 static uint16_t eof_frame(uint8_t *out, uint8_t id)
 {
-    static const uint8_t body[] = {0xFF, UPDATE_SUB_BLOCK, UPDATE_TYPE_EOF};
+    static const uint8_t body[] = {0xFF, PROTO_UPDATE_SUB_BLOCK, PROTO_UPDATE_TYPE_EOF};
     return wire_frame(out, id, 4, body, sizeof body);
 }
 
@@ -58,10 +58,10 @@ static uint16_t eof_frame(uint8_t *out, uint8_t id)
 static uint16_t block_frame(uint8_t *out, uint8_t id, uint8_t type, uint8_t num,
                             const uint8_t *data)
 {
-    static uint8_t body[5u + UPDATE_BLOCK_DATA + 2u];
-    uint16_t n = type == UPDATE_TYPE_DATA ? UPDATE_BLOCK_DATA : UPDATE_HEADER_DATA;
+    static uint8_t body[5u + PROTO_UPDATE_BLOCK_DATA + 2u];
+    uint16_t n = type == PROTO_UPDATE_TYPE_DATA ? PROTO_UPDATE_BLOCK_DATA : PROTO_UPDATE_HEADER_DATA;
     body[0] = 0xFF;
-    body[1] = UPDATE_SUB_BLOCK;
+    body[1] = PROTO_UPDATE_SUB_BLOCK;
     body[2] = type;
     body[3] = num;
     body[4] = (uint8_t)~num;
@@ -70,38 +70,38 @@ static uint16_t block_frame(uint8_t *out, uint8_t id, uint8_t type, uint8_t num,
     body[5u + n] = (uint8_t)(crc >> 8);
     body[6u + n] = (uint8_t)crc;
     uint16_t total = (uint16_t)(n + 7u);
-    return wire_frame(out, id, type == UPDATE_TYPE_DATA ? 0xFFu : (uint8_t)(total + 1u), body,
+    return wire_frame(out, id, type == PROTO_UPDATE_TYPE_DATA ? 0xFFu : (uint8_t)(total + 1u), body,
                       total);
 }
 
 static uint16_t header_frame(uint8_t *out, uint8_t id, uint32_t length)
 {
-    uint8_t d[UPDATE_HEADER_DATA] = {(uint8_t)(length >> 24), (uint8_t)(length >> 16),
+    uint8_t d[PROTO_UPDATE_HEADER_DATA] = {(uint8_t)(length >> 24), (uint8_t)(length >> 16),
                                      (uint8_t)(length >> 8), (uint8_t)length};
-    return block_frame(out, id, UPDATE_TYPE_HEADER, 0, d);
+    return block_frame(out, id, PROTO_UPDATE_TYPE_HEADER, 0, d);
 }
 
 static uint16_t batch_end_frame(uint8_t *out, uint8_t id)
 {
-    static const uint8_t zero[UPDATE_HEADER_DATA];
-    return block_frame(out, id, UPDATE_TYPE_HEADER, 0, zero);
+    static const uint8_t zero[PROTO_UPDATE_HEADER_DATA];
+    return block_frame(out, id, PROTO_UPDATE_TYPE_HEADER, 0, zero);
 }
 
 /* Data block num (1-based) of img, the last one padded with 0xFF. */
 static uint16_t data_frame(uint8_t *out, uint8_t id, const uint8_t *img, uint32_t len,
                            uint8_t num)
 {
-    uint8_t d[UPDATE_BLOCK_DATA];
-    uint32_t at = (uint32_t)(num - 1u) * UPDATE_BLOCK_DATA;
+    uint8_t d[PROTO_UPDATE_BLOCK_DATA];
+    uint32_t at = (uint32_t)(num - 1u) * PROTO_UPDATE_BLOCK_DATA;
     memset(d, 0xFF, sizeof d);
     if (at < len)
-        memcpy(d, &img[at], len - at < UPDATE_BLOCK_DATA ? len - at : UPDATE_BLOCK_DATA);
-    return block_frame(out, id, UPDATE_TYPE_DATA, num, d);
+        memcpy(d, &img[at], len - at < PROTO_UPDATE_BLOCK_DATA ? len - at : PROTO_UPDATE_BLOCK_DATA);
+    return block_frame(out, id, PROTO_UPDATE_TYPE_DATA, num, d);
 }
 
 static uint8_t blocks_of(uint32_t len)
 {
-    return (uint8_t)((len + UPDATE_BLOCK_DATA - 1u) / UPDATE_BLOCK_DATA);
+    return (uint8_t)((len + PROTO_UPDATE_BLOCK_DATA - 1u) / PROTO_UPDATE_BLOCK_DATA);
 }
 
 /* ---- a servo on the bus ------------------------------------------------------------ */
@@ -124,7 +124,7 @@ static void factory(void)
 static void step(uint32_t us)
 {
     hal.now_us += us;
-    servo_step(&s);
+    servo_poll(&s);
     if (hal.restart_requested)
         power_on();
 }
@@ -136,7 +136,7 @@ static uint16_t xfer_wait(const uint8_t *out, uint16_t n, uint8_t *ans, uint32_t
     for (uint16_t i = 0; i < n; i++) {
         hal.now_us += BYTE_US;
         servo_rx_isr(&s, out[i]);
-        servo_step(&s);
+        servo_poll(&s);
     }
     for (uint32_t t = 0; t < wait_us; t += 100u)
         step(100);
@@ -500,28 +500,28 @@ static void test_receiver_oversize_only_for_data_blocks(void **state)
     uint16_t n = data_frame(wire, 1, img, 2000, 1);
     for (uint16_t i = 0; i < n; i++)
         frame_rx_byte(rx, wire[i], now += BYTE_US);
-    assert_null(frame_rx_peek(rx));
-    const struct frame_block *b = frame_rx_peek_block(rx);
+    const struct frame *b = frame_rx_peek(rx);
     assert_non_null(b);
+    assert_ptr_equal(b, &rx->slot[FRAME_BLOCK]); /* the block buffer, not a slot */
     assert_int_equal(b->len, FRAME_BLOCK_BYTES);
     assert_int_equal(b->status, FRAME_OK);
     assert_memory_equal(b->buf, &wire[2], FRAME_BLOCK_BYTES);
     frame_rx_release(rx);
     /* LEN 0xFF, INS 0xFF, sub 0xFE, but type 1: an ordinary 257-byte frame, after which
      * the rest of the bytes are not a frame. */
-    wire[6] = UPDATE_TYPE_HEADER;
+    wire[6] = PROTO_UPDATE_TYPE_HEADER;
     for (uint16_t i = 0; i < n; i++)
         frame_rx_byte(rx, wire[i], now += BYTE_US);
     const struct frame *f = frame_rx_peek(rx);
     assert_non_null(f);
     assert_int_equal(f->len, FRAME_BYTES);
-    assert_null(frame_rx_peek_block(rx));
+    assert_ptr_not_equal(f, &rx->slot[FRAME_BLOCK]);
     frame_rx_release(rx);
     /* A WRITE with LEN 0xFF keeps its length too (after the line has rested, so the
      * rest of the bytes above is forgotten). */
     now += 10000u;
     assert_true(frame_rx_idle(rx, now));
-    while (frame_rx_peek(rx) || frame_rx_peek_block(rx))
+    while (frame_rx_peek(rx))
         frame_rx_release(rx);
     uint8_t params[253] = {REG_GOAL_POSITION};
     n = proto_build_packet(wire, 1, INS_WRITE, params, sizeof params);
@@ -531,7 +531,7 @@ static void test_receiver_oversize_only_for_data_blocks(void **state)
     assert_non_null(f);
     assert_int_equal(f->len, FRAME_BYTES);
     assert_int_equal(f->status, FRAME_OK);
-    assert_null(frame_rx_peek_block(rx));
+    assert_ptr_not_equal(f, &rx->slot[FRAME_BLOCK]);
 }
 
 /* ---- power cuts -------------------------------------------------------------------- */

@@ -62,6 +62,8 @@ static int bench_dispatch(const char *what, long n)
     else
         len = proto_build_packet(raw, PROTO_ID_BROADCAST, INS_SYNC_WRITE, sync_params, sizeof sync_params);
     static struct frame f;
+    static uint8_t buf[FRAME_BYTES];
+    f.buf = buf;
     memcpy(f.buf, &raw[2], (size_t)(len - 2u));
     f.len = (uint16_t)(len - 2u);
     f.status = FRAME_OK;

@@ -53,7 +53,7 @@ int main(void)
         unsigned detect = 0, off = 0;
         for (unsigned t = 1; t < 5000 && !off; t++) {
             tick();
-            if (!detect && s.live_err)
+            if (!detect && safety_err(&s.safety))
                 detect = t;
             if (!off && hal.motor.duty == 0 && !hal.motor.enabled)
                 off = t;

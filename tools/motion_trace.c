@@ -76,9 +76,9 @@ static double move(int dist, int speed, int acc, int dec, FILE *csv)
             ideal(dist, speed, acc * 10.0, dec * 10.0, t, &ip, &iv);
             fprintf(csv, "%.4f,%.3f,%.3f,%.3f,%.2f,%.2f\n", t, ip,
                     (double)(s.motion.plan.pos >> PLANNER_SHIFT) * 360.0 / 16384,
-                    s.motion.counts * 360.0 / 16384, iv, hal.motor.omega * 57.29578);
+                    s.motion.ctl.counts * 360.0 / 16384, iv, hal.motor.omega * 57.29578);
         }
-        if (done < 0 && !s.regs.mem[REG_MOVING] && llabs(s.motion.counts - goal) <= 1)
+        if (done < 0 && !s.regs.mem[REG_MOVING] && llabs(s.motion.ctl.counts - goal) <= 1)
             done = us * 1e-6;
         if (done >= 0 && (!csv || us * 1e-6 > done + 0.3))
             break;

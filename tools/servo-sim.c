@@ -236,7 +236,7 @@ static void factory_program(struct sim_servo *v)
  * slot into the next one's. */
 static void servo_run_once(struct sim_servo *v)
 {
-    servo_step(&v->servo);
+    servo_poll(&v->servo);
     if (v->hal.restart_requested) { /* hal_restart(): the MCU resets, the bootloader runs */
         hal_host_reboot(&v->hal);
         servo_power_on(&v->servo, v->board, &v->hal);
@@ -255,8 +255,7 @@ static void servo_run_at(struct sim_servo *v, uint32_t now)
     for (int i = 0; i < 8; i++) {
         servo_run_once(v);
         const struct link *l = &v->servo.link;
-        bool next_frame = l->state == LINK_IDLE && (frame_rx_peek(&v->servo.rx) ||
-                                                    frame_rx_peek_block(&v->servo.rx));
+        bool next_frame = l->state == LINK_IDLE && frame_rx_peek(&v->servo.rx);
         bool answer_due = l->state == LINK_WAITING && (int32_t)(now - l->due_us) >= 0;
         if (!next_frame && !answer_due)
             break; /* else go on at once: no answer waits for the next tick */

@@ -59,8 +59,7 @@ int main(void)
     uart_start(h, &servo); /* from here bytes reach the frame receiver */
     bool emulated = h->clock_source == CLOCK_NO_RCC;
     for (;;) {
-        loader_poll(&servo); /* restarts (hal_restart) once an update is staged */
-        hal_watchdog_feed(h);
+        servo_poll(&servo); /* feeds the watchdog; restarts once an update is staged */
         if (emulated) /* as in main.c: let QEMU's I/O thread deliver the bytes */
             __asm volatile("wfi");
     }

@@ -122,13 +122,13 @@ static void poll_once(void)
 {
     uint8_t tail = servo.rx.ready_tail;
     uint8_t my_id = servo.link.id;
-    servo_step(&servo);
+    servo_poll(&servo);
     if (servo.rx.ready_tail != tail) { /* dispatched */
         uint8_t e = servo.rx.ready[tail & (FRAME_READY - 1u)];
-        const struct frame *f = e == FRAME_BLOCK ? 0 : &servo.rx.slot[e];
-        const uint8_t *buf = f ? f->buf : servo.rx.block.buf;
-        uint16_t len = f ? f->len : servo.rx.block.len;
-        bool ok = (f ? f->status : servo.rx.block.status) == FRAME_OK;
+        const struct frame *f = &servo.rx.slot[e];
+        const uint8_t *buf = f->buf;
+        uint16_t len = f->len;
+        bool ok = f->status == FRAME_OK;
         if (buf[0] == PROTO_ID_BROADCAST && !(ok && buf[2] == INS_PING))
             CHECK(servo.link.state == LINK_IDLE); /* invariant 2 */
         if (ok) {

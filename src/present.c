@@ -1,0 +1,18 @@
+/* present.c - the present-state registers (present.h). */
+#include "present.h"
+
+void present_write(struct regs *r, const struct board *b, const struct present_inputs *in)
+{
+    /* Register 36 where the variant has it, else the turned angle (40). */
+    uint8_t pos_reg = regs_applicable(b, REG_PRESENT_POSITION) ? REG_PRESENT_POSITION
+                                                               : REG_TURNED_ANGLE;
+    regs_set(r, pos_reg, (uint16_t)in->position);
+    regs_set(r, REG_PRESENT_SPEED, (uint16_t)in->speed);
+    r->mem[REG_MOVING] = (uint8_t)in->moving;
+    r->mem[REG_PHOTO_SWITCHES] = in->switches;
+    /* Register 46 (every variant): rounded to the degree, bit 7 the sign. */
+    int16_t dc = in->temperature_dc;
+    uint32_t deg = ((uint32_t)(dc < 0 ? -dc : dc) + 5u) / 10u;
+    r->mem[REG_PRESENT_TEMPERATURE] =
+        (uint8_t)((deg > 127u ? 127u : deg) | (dc < 0 && deg ? 0x80u : 0u));
+}
