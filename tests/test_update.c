@@ -563,7 +563,7 @@ static bool session_direct(const uint8_t *im, uint32_t len)
 
 #define CUT_LEN 2200u /* 3 blocks: ~1,100 program/erase operations per session */
 static uint8_t old_img[CUT_LEN], new_img[CUT_LEN];
-static uint8_t before[HAL_PAGES_ALL][HAL_FLASH_PAGE_BYTES];
+static uint8_t before[FLASH_SIM_PAGES][HAL_FLASH_PAGE_BYTES];
 
 /* Power comes back (the cut cleared) and the bootloader decides. */
 static bool cut_boot(void)

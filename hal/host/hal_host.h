@@ -68,6 +68,11 @@ void hal_host_reboot(struct hal *h);
 void hal_host_image_build(uint8_t *img, uint32_t len, uint16_t model, uint8_t version,
                           uint32_t seed);
 
+/* Make img (len bytes, from hal_host_image_build) an image that hangs at start in the
+ * host model (servo_power_on): its info block's reserved byte IMAGE_HOST_HANG, its CRC
+ * stamped again, as tools/fwstamp.py does to a file. */
+void hal_host_image_hang(uint8_t *img, uint32_t len);
+
 /* What a programmer does at the factory: erase the application slot and write img into
  * it directly (no power cut, no wear counted). */
 void hal_host_program_app(struct hal *h, const uint8_t *img, uint32_t len);
