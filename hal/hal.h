@@ -54,7 +54,7 @@ void hal_irq_restore(struct hal *h, uint32_t state);
 #define HAL_PAGE_APP HAL_FLASH_PAGES
 #define HAL_PAGE_STAGING (HAL_PAGE_APP + HAL_SLOT_PAGES)
 #define HAL_PAGES_ALL (HAL_PAGE_STAGING + HAL_SLOT_PAGES) /* store and both slots */
-#define HAL_PAGE_BOOTREC HAL_PAGES_ALL
+#define HAL_PAGE_BOOTREC HAL_PAGES_ALL /* numbered after them, one page */
 
 /* Memory-mapped, read-only view of page p. Any context. */
 const uint8_t *hal_flash_page(struct hal *h, uint8_t p);
