@@ -49,7 +49,7 @@ firmware: deps
 	@echo
 	@echo "application  flash B  of 26 KiB-4  RAM B  of 6 KiB   (vectors + code/data + bss + stack)"
 	@for b in $(BOARDS); do cat build/stm32-$$b/servo-$$b.size; done | $(size_table)
-	@echo "bootloader   flash B  of 8 KiB (target 6)"
+	@echo "bootloader   flash B  of 7 KiB (target 6)"
 	@for b in $(BOARDS); do cat build/stm32-$$b/servo-boot-$$b.size; done | $(size_table)
 	@echo
 	@echo "worst-case stack per entry point (-fstack-usage + call graph; budget 75% of reserved)"

@@ -134,8 +134,9 @@ add_custom_command(TARGET ${boot}.elf POST_BUILD
     BYPRODUCTS ${CMAKE_BINARY_DIR}/${boot}.bin ${CMAKE_BINARY_DIR}/${boot}.hex
     VERBATIM)
 
-# ---- First flashing: the bootloader padded with 0xFF to 8 KiB, then the stamped
-# application (what make flash writes at 0x08000000, and what the QEMU tests boot) ----
+# ---- First flashing: the bootloader padded with 0xFF to 8 KiB (the boot record, its
+# last KiB, erased), then the stamped application (what make flash writes at 0x08000000,
+# and what the QEMU tests boot) ----
 set(full ${CMAKE_BINARY_DIR}/${image}-full)
 add_custom_command(OUTPUT ${full}.bin ${full}.hex
     COMMAND ${SERVO_PYTHON3} ${CMAKE_SOURCE_DIR}/hal/stm32f1/full_image.py

@@ -37,12 +37,14 @@ uint32_t hal_irq_save(struct hal *h);
 void hal_irq_restore(struct hal *h, uint32_t state);
 
 /* Flash the core owns, in pages of HAL_FLASH_PAGE_BYTES numbered by the core (the port
- * maps them to addresses; the bootloader's own flash is not among them):
+ * maps them to addresses; the bootloader's own code is not among them):
  *   pages 0 .. HAL_FLASH_PAGES-1          the persistent store (store.c)
  *   HAL_PAGE_APP .. +HAL_SLOT_PAGES-1     the application slot: the image that runs
  *   HAL_PAGE_STAGING .. +HAL_SLOT_PAGES-1 the staging slot: where an update arrives
- * (STM32F103x8, 64 KiB: bootloader 8 KiB at 0x08000000, application 26 KiB at
- * 0x08002000, staging 26 KiB at 0x08008800, store 4 KiB at 0x0800F000.)
+ *   HAL_PAGE_BOOTREC                      the boot record: starts not yet confirmed (boot.h)
+ * (STM32F103x8, 64 KiB: bootloader 7 KiB at 0x08000000 and the boot record in the last
+ * KiB of its 8 KiB region, 0x08001C00; application 26 KiB at 0x08002000, staging 26 KiB
+ * at 0x08008800, store 4 KiB at 0x0800F000.)
  * Erased flash reads 0xFF; programming only clears bits, one aligned half-word at a time.
  * Program and erase may stall the CPU (tens of ms for an erase); main loop only.
  * Both return false if the operation failed (the store then treats the page as bad). */
@@ -51,7 +53,8 @@ void hal_irq_restore(struct hal *h, uint32_t state);
 #define HAL_SLOT_PAGES 26u
 #define HAL_PAGE_APP HAL_FLASH_PAGES
 #define HAL_PAGE_STAGING (HAL_PAGE_APP + HAL_SLOT_PAGES)
-#define HAL_PAGES_ALL (HAL_PAGE_STAGING + HAL_SLOT_PAGES)
+#define HAL_PAGES_ALL (HAL_PAGE_STAGING + HAL_SLOT_PAGES) /* store and both slots */
+#define HAL_PAGE_BOOTREC HAL_PAGES_ALL /* numbered after them, one page */
 
 /* Memory-mapped, read-only view of page p. Any context. */
 const uint8_t *hal_flash_page(struct hal *h, uint8_t p);
@@ -96,6 +99,11 @@ void hal_rs485_termination(struct hal *h, bool on);
 
 /* Independent watchdog: start once at boot (it cannot be stopped), feed regularly. */
 void hal_watchdog_start(struct hal *h);
+
+/* Did the previous run end by losing power (power-on, brown-out or the reset pin), rather
+ * than by the watchdog or a fault / hal_restart()? Reads and clears the MCU's reset flags,
+ * so the bootloader asks once per boot (boot_start). */
+bool hal_reset_by_power(struct hal *h);
 void hal_watchdog_feed(struct hal *h);
 
 #endif

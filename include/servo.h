@@ -39,10 +39,15 @@ struct servo {
     uint8_t fw_version; /* register 2: the running image's version */
     uint8_t in_loader;  /* running update mode (loader.h), not the application */
     uint8_t restart;    /* restart once the answer in progress has left the wire */
+    uint8_t answered;   /* an answer has left the wire since power-up */
+    uint8_t confirmed;  /* boot_confirm() has nothing left to do (boot.h) */
+    uint8_t hung;       /* host model: the image hangs at start (servo_power_on) */
+    uint32_t start_us;  /* power-up of the application (or of the hang) */
 };
 
 /* Power-up: factory table with the stored EEPROM registers on top, settings in force,
- * receiver empty, motor off. */
+ * receiver empty, motor off. Then servo_poll() confirms the start (boot_confirm) once
+ * its first answer has left the wire, or after BOOT_CONFIRM_US. */
 void servo_init(struct servo *s, const struct board *b, struct hal *hal);
 
 /* Interrupt context: the UART received one byte. */
@@ -54,9 +59,20 @@ void servo_rx_isr(struct servo *s, uint8_t byte);
 void servo_poll(struct servo *s);
 
 /* Power-up as the MCU does it with its bootloader (host harnesses): install a staged
- * update (boot.h), then start the application, or stay in update mode (loader.h) when no
- * valid image is installed. */
+ * update and count the start (boot_start, boot.h), then start the application with the
+ * watchdog running, or stay in update mode (loader.h) when no valid image is installed
+ * or it has BOOT_STARTS_MAX unconfirmed starts.
+ *
+ * The host image model: whatever the image's bytes, "starting" it runs this core, with
+ * register 2 from its info block; except an image whose info block's reserved byte is
+ * IMAGE_HOST_HANG (image.h), which stands for a build that hangs at start: nothing runs
+ * and nothing feeds the watchdog, which resets the servo (hal_restart) after
+ * SERVO_WATCHDOG_US, as the IWDG would. */
+#define SERVO_WATCHDOG_US 250000u /* hal/stm32f1/iwdg.c: 250 ms nominal */
 void servo_power_on(struct servo *s, const struct board *b, struct hal *hal);
 
+/* Host harnesses: one main-loop step of whatever servo_power_on() started (servo_poll(),
+ * or the watchdog model of a hung image). */
+void servo_step(struct servo *s);
 
 #endif

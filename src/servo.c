@@ -33,6 +33,7 @@ void servo_init(struct servo *s, const struct board *b, struct hal *hal)
     link_latch(s);
     motion_init(s); /* motor off; the goal starts at the present position (rule 1) */
     hal_watchdog_start(s->hal); /* a hang resets the MCU, which comes up with the motor off */
+    s->start_us = hal_clock_us(hal);
 }
 
 void servo_rx_isr(struct servo *s, uint8_t byte)
@@ -62,10 +63,23 @@ static void servo_pass(struct servo *s, uint32_t now)
     uint32_t irq = hal_irq_save(s->hal);
     bool rx_idle = frame_rx_idle(&s->rx, now);
     hal_irq_restore(s->hal, irq);
+    bool sending = s->link.state == LINK_SENDING;
     bool link_idle = link_poll(s, now, rx_idle);
+    if (sending && link_idle)
+        s->answered = 1; /* its last stop bit is out */
     /* Flash work (an erase stalls the CPU) only while nothing moves and the bus rests. */
-    if (app)
-        store_poll(&s->store, &s->regs, now, link_idle && rx_idle && !s->regs.mem[REG_MOVING]);
+    bool quiet = link_idle && rx_idle && !s->regs.mem[REG_MOVING];
+    if (app) {
+        /* The start is confirmed once this image has answered on the bus or run its main
+         * loop for a while (boot.h): a half-word programmed, microseconds. An erase of the
+         * record (rare) waits for quiet, and the store's own erase for the next pass: one
+         * erase per pass at most. */
+        if (!s->confirmed && (s->answered || now - s->start_us >= BOOT_CONFIRM_US)) {
+            s->confirmed = boot_confirm(s->hal, quiet);
+            quiet = false;
+        }
+        store_poll(&s->store, &s->regs, now, quiet);
+    }
     if (!link_idle)
         return;
     if (s->restart) { /* a verified update: its ACK is out */
@@ -103,8 +117,31 @@ void servo_poll(struct servo *s)
 
 void servo_power_on(struct servo *s, const struct board *b, struct hal *hal)
 {
-    if (boot_install(hal, b->model_number))
-        servo_init(s, b, hal);
-    else
+    bool start = boot_start(hal, b->model_number);
+    hal_watchdog_start(hal); /* as the bootloader: before the jump, or for update mode */
+    if (!start) {
         loader_init(s, b, hal);
+        return;
+    }
+    if (hal_flash_page(hal, HAL_PAGE_APP)[IMAGE_INFO_OFFSET + IMAGE_OFF_RESERVED] ==
+        IMAGE_HOST_HANG) {
+        memset(s, 0, sizeof *s);
+        s->hal = hal;
+        s->board = b;
+        s->hung = 1;
+        s->start_us = hal_clock_us(hal);
+        frame_rx_init(&s->rx, link_baud(b, 0)); /* a harness may still hand it bytes */
+        return;
+    }
+    servo_init(s, b, hal);
+}
+
+/* Host harnesses: one main-loop step of whatever servo_power_on() started, the host's
+ * model of an image that hangs at start included (the MCU's watchdog resets it). */
+void servo_step(struct servo *s)
+{
+    if (!s->hung)
+        servo_poll(s);
+    else if (hal_clock_us(s->hal) - s->start_us >= SERVO_WATCHDOG_US)
+        hal_restart(s->hal); /* the watchdog: never fed since the start */
 }

@@ -124,7 +124,7 @@ static void factory(void)
 static void step(uint32_t us)
 {
     hal.now_us += us;
-    servo_poll(&s);
+    servo_step(&s);
     if (hal.restart_requested)
         power_on();
 }
@@ -136,7 +136,7 @@ static uint16_t xfer_wait(const uint8_t *out, uint16_t n, uint8_t *ans, uint32_t
     for (uint16_t i = 0; i < n; i++) {
         hal.now_us += BYTE_US;
         servo_rx_isr(&s, out[i]);
-        servo_poll(&s);
+        servo_step(&s);
     }
     for (uint32_t t = 0; t < wait_us; t += 100u)
         step(100);
@@ -563,7 +563,7 @@ static bool session_direct(const uint8_t *im, uint32_t len)
 
 #define CUT_LEN 2200u /* 3 blocks: ~1,100 program/erase operations per session */
 static uint8_t old_img[CUT_LEN], new_img[CUT_LEN];
-static uint8_t before[HAL_PAGES_ALL][HAL_FLASH_PAGE_BYTES];
+static uint8_t before[FLASH_SIM_PAGES][HAL_FLASH_PAGE_BYTES];
 
 /* Power comes back (the cut cleared) and the bootloader decides. */
 static bool cut_boot(void)

@@ -26,7 +26,7 @@ void hal_uart_send(struct hal *h, const uint8_t *buf, uint16_t len) { (void)h; (
 bool hal_uart_tx_busy(struct hal *h) { (void)h; return false; }
 uint32_t hal_irq_save(struct hal *h) { (void)h; return 0; }
 void hal_irq_restore(struct hal *h, uint32_t state) { (void)h; (void)state; }
-static uint8_t flash[HAL_PAGES_ALL][HAL_FLASH_PAGE_BYTES];
+static uint8_t flash[HAL_PAGE_BOOTREC + 1u][HAL_FLASH_PAGE_BYTES];
 const uint8_t *hal_flash_page(struct hal *h, uint8_t p) { (void)h; return flash[p]; }
 bool hal_flash_erase(struct hal *h, uint8_t p) { (void)h; memset(flash[p], 0xFF, sizeof flash[p]); return true; }
 bool hal_flash_program(struct hal *h, uint8_t p, uint16_t off, uint16_t v)
@@ -37,6 +37,7 @@ bool hal_flash_program(struct hal *h, uint8_t p, uint16_t off, uint16_t v)
     return true;
 }
 void hal_restart(struct hal *h) { (void)h; }
+bool hal_reset_by_power(struct hal *h) { (void)h; return true; }
 void hal_motor_enable(struct hal *h, bool on) { (void)h; (void)on; }
 void hal_motor_drive(struct hal *h, int16_t duty) { h->duty = duty; }
 int32_t hal_motor_position(struct hal *h) { return h->pos += h->duty / 40; }

@@ -21,10 +21,11 @@
  * - The motor and the photo switches of each servo are the host HAL's plant
  *   (hal_host_attach_board(): arm switches at 0 and 420 degrees, the shaft starting at
  *   90), integrated up to the real clock. The shaft starts there at every start.
- * - --state-dir: each servo's simulated flash lives in DIR/servo-<ID>-<variant>.flash
- *   (ID as given on the command line), loaded before servo_init() and written back page
- *   by page (pwrite of the changed 1 KiB page in place) right after every flash
- *   operation, so a SIGKILL at any moment is a power cut between two flash operations.
+ * - --state-dir: each servo's simulated flash (store, both slots, boot record) lives in
+ *   DIR/servo-<ID>-<variant>.flash (ID as given on the command line), loaded before
+ *   servo_power_on() and written back page by page (pwrite of the changed 1 KiB page in
+ *   place) right after every flash operation, so a SIGKILL at any moment is a power cut
+ *   between two flash operations.
  *
  * Single-threaded, non-blocking, one ppoll() loop. SIGINT/SIGTERM end it cleanly.
  * Exit status: 0 after a signal, 2 for a bad command line or a port that cannot be
@@ -59,7 +60,8 @@
 #define SIM_CATCH_UP_US 200000u   /* a servo this far behind real time jumps */
 #define SIM_CONFIG_US 1000000u    /* virtual time reserved for configuring new servos */
 #define SIM_OUT_MAX (1u << 20)    /* bytes queued for a client that does not read */
-#define SIM_FLASH_BYTES (HAL_PAGES_ALL * HAL_FLASH_PAGE_BYTES)
+#define SIM_FLASH_BYTES (FLASH_SIM_PAGES * HAL_FLASH_PAGE_BYTES) /* with the boot record */
+#define SIM_SLOTS_FLASH_BYTES (HAL_PAGES_ALL * HAL_FLASH_PAGE_BYTES) /* store and slots */
 #define SIM_OLD_FLASH_BYTES (HAL_FLASH_PAGES * HAL_FLASH_PAGE_BYTES) /* store only */
 
 static const char usage[] =
@@ -75,7 +77,7 @@ struct sim_servo {
     int state_fd;      /* -1 without --state-dir */
     uint32_t synced_ops; /* hal.flash.ops when the file last matched the flash */
     char *state_path;
-    uint8_t saved[HAL_PAGES_ALL][HAL_FLASH_PAGE_BYTES]; /* what the file holds */
+    uint8_t saved[FLASH_SIM_PAGES][HAL_FLASH_PAGE_BYTES]; /* what the file holds */
 };
 
 static struct sim_servo *servos[SIM_SERVOS_MAX];
@@ -124,7 +126,7 @@ static void state_write(struct sim_servo *v)
 {
     if (v->state_fd < 0)
         return;
-    for (unsigned p = 0; p < HAL_PAGES_ALL; p++) {
+    for (unsigned p = 0; p < FLASH_SIM_PAGES; p++) {
         if (memcmp(v->hal.flash.mem[p], v->saved[p], HAL_FLASH_PAGE_BYTES) == 0)
             continue;
         ssize_t n = pwrite(v->state_fd, v->hal.flash.mem[p], HAL_FLASH_PAGE_BYTES,
@@ -197,16 +199,18 @@ static void state_open(struct sim_servo *v, const char *dir)
         return;
     }
     /* A file from before the image slots holds the store pages only: keep them, the
-     * slots start erased (and get the factory image). */
+     * slots start erased (and get the factory image); one from before the boot record
+     * holds store and slots: the record starts erased (no start counted). */
     size_t bytes = (size_t)st.st_size;
-    if (bytes != SIM_FLASH_BYTES && bytes != SIM_OLD_FLASH_BYTES)
+    if (bytes != SIM_FLASH_BYTES && bytes != SIM_SLOTS_FLASH_BYTES &&
+        bytes != SIM_OLD_FLASH_BYTES)
         die(2, "state file %s has %lld bytes, not %u: not a servo-sim flash image",
             v->state_path, (long long)st.st_size, SIM_FLASH_BYTES);
     if (pread(v->state_fd, v->hal.flash.mem, bytes, 0) != (ssize_t)bytes)
         die(2, "cannot read state file %s: %s", v->state_path, strerror(errno));
     memcpy(v->saved, v->hal.flash.mem, bytes);
-    if (bytes == SIM_OLD_FLASH_BYTES)
-        memset(v->saved[HAL_FLASH_PAGES], 0, SIM_FLASH_BYTES - bytes); /* written on sync */
+    if (bytes < SIM_FLASH_BYTES) /* the pages it lacks are written on sync */
+        memset(v->saved[bytes / HAL_FLASH_PAGE_BYTES], 0, SIM_FLASH_BYTES - bytes);
 }
 
 static bool pages_blank(const struct sim_servo *v, unsigned first, unsigned count)
@@ -236,7 +240,7 @@ static void factory_program(struct sim_servo *v)
  * slot into the next one's. */
 static void servo_run_once(struct sim_servo *v)
 {
-    servo_poll(&v->servo);
+    servo_step(&v->servo);
     if (v->hal.restart_requested) { /* hal_restart(): the MCU resets, the bootloader runs */
         hal_host_reboot(&v->hal);
         servo_power_on(&v->servo, v->board, &v->hal);

@@ -47,7 +47,7 @@ const uint8_t *flash_sim_page(struct flash_sim *f, uint8_t p)
 bool flash_sim_erase(struct flash_sim *f, uint8_t p)
 {
     int cut = cut_now(f);
-    if (cut < 0 || p >= HAL_PAGES_ALL)
+    if (cut < 0 || p >= FLASH_SIM_PAGES)
         return false;
     if (cut && f->cut_kind == FLASH_CUT_CLEAN)
         return false;
@@ -69,11 +69,12 @@ bool flash_sim_erase(struct flash_sim *f, uint8_t p)
 bool flash_sim_program(struct flash_sim *f, uint8_t p, uint16_t off, uint16_t value)
 {
     int cut = cut_now(f);
-    if (cut < 0 || p >= HAL_PAGES_ALL || (off & 1u) || off >= HAL_FLASH_PAGE_BYTES)
+    if (cut < 0 || p >= FLASH_SIM_PAGES || (off & 1u) || off >= HAL_FLASH_PAGE_BYTES)
         return false;
     if (cut && f->cut_kind == FLASH_CUT_CLEAN)
         return false;
-    f->programs++;
+    if (p < HAL_FLASH_PAGES)
+        f->programs++;
     uint16_t old = (uint16_t)(f->mem[p][off] | (f->mem[p][off + 1u] << 8));
     uint16_t v = old & value; /* programming only clears bits */
     if (cut && f->cut_kind == FLASH_CUT_TORN)

@@ -1,6 +1,6 @@
-/* flash_sim.h - simulated STM32F1 flash (store and image slots, hal.h) on the host: counts
- * erases per page, and can cut the power at the Nth program or erase, leaving the
- * half-word torn or the page half-erased (bits in an undefined state) like a brown-out
+/* flash_sim.h - simulated STM32F1 flash (store, image slots and boot record, hal.h) on the
+ * host: counts erases per page, and can cut the power at the Nth program or erase, leaving
+ * the half-word torn or the page half-erased (bits in an undefined state) like a brown-out
  * does. After a cut every operation fails until flash_sim_power_on(). */
 #ifndef FLASH_SIM_H
 #define FLASH_SIM_H
@@ -16,11 +16,15 @@ enum flash_cut {
     FLASH_CUT_TORN,  /* a program left some bits programmed, an erase some bits erased */
 };
 
+/* Every page the core numbers (hal.h): the store and both slots, then the boot record. */
+#define FLASH_SIM_PAGES (HAL_PAGE_BOOTREC + 1u)
+
 struct flash_sim {
-    uint8_t mem[HAL_PAGES_ALL][HAL_FLASH_PAGE_BYTES]; /* store, application, staging */
-    uint32_t erases[HAL_PAGES_ALL];  /* erase cycles per page */
+    uint8_t mem[FLASH_SIM_PAGES][HAL_FLASH_PAGE_BYTES]; /* store, both slots, boot record */
+    uint32_t erases[FLASH_SIM_PAGES]; /* erase cycles per page */
     uint32_t ops;                     /* programs + erases since power-on */
-    uint32_t programs;                /* half-words programmed, ever (power cycles too) */
+    uint32_t programs;                /* half-words programmed into the store's pages, ever
+                                       * (power cycles too): the store's records */
     uint32_t cut_at;                  /* cut the power at this op (1-based); 0 = never */
     uint8_t cut_kind;                 /* enum flash_cut */
     bool powered;

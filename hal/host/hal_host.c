@@ -12,6 +12,7 @@ void hal_host_init(struct hal *h)
     motor_sim_init(&h->motor, HAL_HOST_COUNTS_PER_REV);
     h->supply_mv = 12000;
     h->temperature_dc = 250;
+    h->power_reset = true;
 }
 
 void hal_host_reboot(struct hal *h)
@@ -24,6 +25,7 @@ void hal_host_reboot(struct hal *h)
     h->motor.enabled = false; /* a reset leaves the bridge off until the core says */
     h->motor.duty = 0;
     h->termination = false;
+    h->power_reset = !h->restart_requested; /* hal_restart() or the watchdog model, or power */
     h->restart_requested = false;
     h->watchdog_started = false;
 }
@@ -191,4 +193,9 @@ void hal_watchdog_start(struct hal *h)
 void hal_watchdog_feed(struct hal *h)
 {
     h->watchdog_feeds++;
+}
+
+bool hal_reset_by_power(struct hal *h)
+{
+    return h->power_reset;
 }

@@ -40,6 +40,7 @@ struct hal {
     double sw1_deg, sw2_deg; /* switch 1 reads high beyond sw1 (away from sw2), 2 beyond sw2 */
     bool termination;
     bool restart_requested; /* hal_restart() was called; the harness reboots */
+    bool power_reset;       /* the last reboot was a power cycle, not a restart/watchdog */
     bool watchdog_started;
     uint32_t watchdog_feeds;
     struct hal_tx_byte log[HAL_HOST_TX_LOG];
@@ -67,6 +68,11 @@ void hal_host_reboot(struct hal *h);
  * model, with the given version; seed varies its content. len >= IMAGE_MIN_BYTES. */
 void hal_host_image_build(uint8_t *img, uint32_t len, uint16_t model, uint8_t version,
                           uint32_t seed);
+
+/* Make img (len bytes, from hal_host_image_build) an image that hangs at start in the
+ * host model (servo_power_on): its info block's reserved byte IMAGE_HOST_HANG, its CRC
+ * stamped again, as tools/fwstamp.py does to a file. */
+void hal_host_image_hang(uint8_t *img, uint32_t len);
 
 /* What a programmer does at the factory: erase the application slot and write img into
  * it directly (no power cut, no wear counted). */

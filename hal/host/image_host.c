@@ -30,6 +30,14 @@ void hal_host_image_build(uint8_t *img, uint32_t len, uint16_t model, uint8_t ve
     put32(&info[IMAGE_OFF_CRC], ~crc32_update(CRC32_INIT, img, len));
 }
 
+void hal_host_image_hang(uint8_t *img, uint32_t len)
+{
+    uint8_t *info = &img[IMAGE_INFO_OFFSET];
+    info[IMAGE_OFF_RESERVED] = IMAGE_HOST_HANG;
+    put32(&info[IMAGE_OFF_CRC], 0);
+    put32(&info[IMAGE_OFF_CRC], ~crc32_update(CRC32_INIT, img, len));
+}
+
 void hal_host_program_factory(struct hal *h, const struct board *b)
 {
     static uint8_t img[HAL_HOST_FACTORY_BYTES];

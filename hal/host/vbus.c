@@ -98,7 +98,7 @@ void vbus_run_until(struct vbus *b, uint32_t t_us)
         for (uint8_t i = 0; i < b->nodes; i++) {
             struct vbus_node *n = &b->node[i];
             n->hal.now_us = t;
-            servo_poll(&n->servo);
+            servo_step(&n->servo);
             if (n->hal.restart_requested) /* hal_restart(): reset, the bootloader runs */
                 vbus_power_cycle(b, i);
         }

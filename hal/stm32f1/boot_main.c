@@ -1,20 +1,26 @@
-/* boot_main.c - the bootloader (board/stm32f103x8-boot.ld, 8 KiB region at the reset address).
+/* boot_main.c - the bootloader (board/stm32f103x8-boot.ld: 7 KiB at the reset address,
+ * then the boot record's page).
  *
- * At reset, on the reset clock (HSI 8 MHz) and with no peripheral touched, boot_install()
- * (boot.h) installs a verified update waiting in the staging slot and says whether the
- * application slot holds a valid image for this board's model. If it does, the
- * application starts as if from reset: nothing has been set up that it would have to
- * undo. If not, the bootloader stays in update mode: the loader (loader.h) answers the
- * §10 update frames at the stored ID and baud, and restarts once an update has been
- * staged; the next boot installs it. The motor is never driven here: the bridge stays
- * asleep (gpio_init) and motor.c is not even linked.
+ * At reset, on the reset clock (HSI 8 MHz) and with no peripheral touched, boot_start()
+ * (boot.h) installs a verified update waiting in the staging slot and says whether to
+ * start the application: its slot holds a valid image for this board's model, and fewer
+ * than BOOT_STARTS_MAX of its starts went unconfirmed (it hung or crashed before it
+ * answered on the bus or ran 2 s); it has then recorded this start. The application
+ * starts as if from reset: nothing has been set up that it would have to undo, except
+ * the watchdog. If not, the bootloader stays in update mode: the loader (loader.h)
+ * answers the §10 update frames at the stored ID and baud, and restarts once an update
+ * has been staged; the next boot installs it. The motor is never driven here: the bridge
+ * stays asleep (gpio_init) and motor.c is not even linked.
  *
  * Watchdog: after any reset the IWDG is stopped (unless the option bytes select the
  * hardware watchdog, see flash.c). The install runs without it: a page erase and copy
- * take ~2 s for a full slot, and a reset in the middle only means copying again. In
- * update mode the IWDG is started as in the application (~250 ms) and fed every loop
- * pass: a hung loader resets into the bootloader, which comes back to update mode. The
- * longest stall of a pass is one block's erase and programming (< 100 ms). */
+ * take ~2 s for a full slot, and a reset in the middle only means copying again. It is
+ * started (~250 ms, as the application sets it) just before the jump, so an application
+ * that hangs before its own start-up reaches servo_init() is reset too, and the next
+ * boot counts that start. Update mode starts it at the same point (its set-up takes
+ * ~25 ms at most, the clock's fall-backs) and feeds it every loop pass: a hung loader
+ * resets into the bootloader, which comes back to update mode. The longest stall of a
+ * pass is one block's erase and programming (< 100 ms). */
 #include "boot.h"
 #include "hal_stm32f1.h"
 #include "loader.h"
@@ -47,7 +53,9 @@ static __attribute__((noreturn)) void start_application(void)
 int main(void)
 {
     struct hal *h = &hal_stm32;
-    if (boot_install(h, SERVO_MODEL))
+    bool start = boot_start(h, SERVO_MODEL);
+    hal_watchdog_start(h); /* an application that hangs before it feeds it is reset */
+    if (start)
         start_application();
 
     gpio_init();         /* bridge asleep, RS485 driver off */
@@ -55,7 +63,6 @@ int main(void)
     clock_tick_start(h); /* hal_clock_us() */
     uart_init(h);        /* receiver on, interrupt still off */
     loader_init(&servo, &SERVO_BOARD, h); /* stored ID and baud */
-    hal_watchdog_start(h);
     uart_start(h, &servo); /* from here bytes reach the frame receiver */
     bool emulated = h->clock_source == CLOCK_NO_RCC;
     for (;;) {

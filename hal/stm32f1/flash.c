@@ -3,10 +3,12 @@
  *   pages 0 .. HAL_FLASH_PAGES-1     the store, the top 4 KiB (region STORE)
  *   HAL_PAGE_APP .. HAL_PAGES_ALL-1  the application slot then the staging slot, which
  *                                    touch: page HAL_PAGE_APP + n is _app_start + n KiB
+ *   HAL_PAGE_BOOTREC                 the boot record, the last KiB of the bootloader's
+ *                                    8 KiB region (region BOOTREC, 0x08001C00)
  * Any other page number fails (a null view, false for erase and program). The
- * bootloader's own 8 KiB are never among them. The application (built without
+ * bootloader's own 7 KiB of code are never among them. The application (built without
  * SERVO_BOOTLOADER) may not erase or program its own slot, only the bootloader installs
- * into it.
+ * into it; both write the boot record (boot.h).
  *
  * While the FPEC works (20-40 ms for a page erase, ~50 us for a half-word) any flash
  * read stalls the CPU. The start-and-wait step therefore runs from RAM, so the USART1
@@ -19,10 +21,10 @@ _Static_assert(HAL_FLASH_PAGES * HAL_FLASH_PAGE_BYTES == 4096u,
                "the linker script reserves 4 KiB (STORE) for the store");
 _Static_assert(HAL_SLOT_PAGES * HAL_FLASH_PAGE_BYTES == 26u * 1024u,
                "the linker script's slots (APP, STAGING) are 26 KiB each");
-_Static_assert(HAL_PAGE_APP == HAL_FLASH_PAGES && HAL_PAGES_ALL <= 256u,
-               "page numbers: the store, then both slots, in a uint8_t");
+_Static_assert(HAL_PAGE_APP == HAL_FLASH_PAGES && HAL_PAGE_BOOTREC < 256u,
+               "page numbers: the store, both slots, the boot record, in a uint8_t");
 
-extern const uint8_t _store_start[], _app_start[]; /* stm32f103x8-memory.ld */
+extern const uint8_t _store_start[], _app_start[], _bootrec_start[]; /* stm32f103x8-memory.ld */
 
 /* Longest wait for BSY: an erase is 40 ms at most; the loop is >= 4 cycles. */
 #define BUSY_SPINS 2000000u
@@ -34,6 +36,8 @@ const uint8_t *hal_flash_page(struct hal *h, uint8_t p)
         return _store_start + (uint32_t)p * HAL_FLASH_PAGE_BYTES;
     if (p >= HAL_PAGE_APP && p < HAL_PAGES_ALL)
         return _app_start + (uint32_t)(p - HAL_PAGE_APP) * HAL_FLASH_PAGE_BYTES;
+    if (p == HAL_PAGE_BOOTREC)
+        return _bootrec_start;
     return 0;
 }
 

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """full_image.py - the image of a whole STM32F103x8 for its first flashing: the bootloader
-padded with 0xFF to its region (8 KiB), then the stamped application, which so lands at
-the application slot (0x08002000; board/stm32f103x8-memory.ld). Fails if the bootloader
+padded with 0xFF to its region (8 KiB: its code, then the boot record's page, so the
+record starts erased), then the stamped application, which so lands at the application
+slot (0x08002000; board/stm32f103x8-memory.ld). Fails if the bootloader
 does not fit its region, or if the application is not a stamped image within the image
 limit (include/image.h: magic "SRVI" at 0x100, length = the file's size,
 IMAGE_MAX_BYTES). cmake/stm32.cmake passes the two sizes.

@@ -26,3 +26,13 @@ void hal_watchdog_feed(struct hal *h)
     (void)h;
     IWDG->kr = IWDG_KEY_RELOAD;
 }
+
+bool hal_reset_by_power(struct hal *h)
+{
+    (void)h;
+    /* The watchdog (IWDG or WWDG) or a software reset (a fault, hal_restart) ended the
+     * last run; otherwise it was power-on, brown-out or the reset pin. */
+    uint32_t csr = RCC->csr;
+    RCC->csr = csr | RCC_CSR_RMVF; /* clear them: the next boot sees its own cause */
+    return (csr & (RCC_CSR_IWDGRSTF | RCC_CSR_WWDGRSTF | RCC_CSR_SFTRSTF)) == 0u;
+}

@@ -85,11 +85,14 @@ void hal_irq_restore(struct hal *h, uint32_t state)
 /* Any context. A memory-mapped, read-only view of page p, HAL_FLASH_PAGE_BYTES long, in
  * the core's numbering (hal.h): pages 0 .. HAL_FLASH_PAGES-1 are the store, then the
  * application slot (HAL_PAGE_APP, HAL_SLOT_PAGES pages: the image that runs, linked
- * there) and the staging slot (HAL_PAGE_STAGING: where an update arrives). The store's
- * pages are reserved (the linker script keeps every image out of them) and survive a
- * firmware update. A page number outside these: return 0. With a bootloader (hal.h's
- * flash map on the STM32F103: bootloader 8 KiB, the two slots, the store), the
- * bootloader's own flash is never among the pages. */
+ * there), the staging slot (HAL_PAGE_STAGING: where an update arrives) and the boot
+ * record (HAL_PAGE_BOOTREC, boot.h: the bootloader's START and the application's
+ * CONFIRM marks). The store's pages are reserved (the linker script keeps every image
+ * out of them) and survive a firmware update. A page number outside these: return 0; a
+ * port without a bootloader may return 0 for HAL_PAGE_BOOTREC too (the application then
+ * confirms nothing). With a bootloader (hal.h's flash map on the STM32F103: bootloader
+ * 7 KiB and the boot record's page, the two slots, the store), the bootloader's own code
+ * is never among the pages. */
 const uint8_t *hal_flash_page(struct hal *h, uint8_t p)
 {
     (void)h;
@@ -207,4 +210,10 @@ void hal_watchdog_feed(struct hal *h)
 void hal_restart(struct hal *h)
 {
     (void)h;
+}
+
+bool hal_reset_by_power(struct hal *h)
+{
+    (void)h;
+    return true; /* TODO(port): read and clear the MCU's reset-cause flags */
 }

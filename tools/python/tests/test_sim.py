@@ -104,8 +104,8 @@ def test_state_dir_files_are_created(sim_factory, tmp_path):
     sim = sim_factory("1:arm", "5:base", state_dir=state)
     for name in ("servo-1-arm.flash", "servo-5-base.flash"):
         f = state / name
-        # store (4 pages), application slot and staging slot (26 pages each)
-        assert f.stat().st_size == (4 + 26 + 26) * 1024
+        # store (4 pages), application slot and staging slot (26 pages each), boot record
+        assert f.stat().st_size == (4 + 26 + 26 + 1) * 1024
     sim.stop()
 
 

@@ -1,0 +1,660 @@
+/* test_boot.c - boot confirmation (boot.h, docs/update.md): the bootloader counts the
+ * starts an application did not confirm and, after BOOT_STARTS_MAX of them, stays in
+ * update mode. On a host servo: an image that hangs at start (the host image model,
+ * IMAGE_HOST_HANG) is started three times, then the servo waits in update mode, across
+ * power cycles, until a good image is sent, which installs and confirms; a good image
+ * confirms at its first answer or after BOOT_CONFIRM_US and never falls back. On the
+ * record alone: every torn mark and torn erase is read the right way, and a power cut
+ * at every flash operation of 150 starts, of an install, never locks a good image out. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "boot.h"
+#include "crc.h"
+#include "hal_host.h"
+#include "image.h"
+#include "proto.h"
+#include "servo.h"
+#include "update.h"
+
+#define BYTE_US 1042u /* 9600 baud, the arm's default */
+#define WIRE_MAX (4u + FRAME_BLOCK_BYTES)
+
+static struct hal hal;
+static struct servo s;
+static const struct board *const arm = &board_arm;
+static uint32_t resets; /* restarts the servo asked for (hal_restart: update, watchdog) */
+
+/* ---- the record ---------------------------------------------------------------------- */
+
+static uint16_t unconfirmed(void)
+{
+    uint16_t end;
+    return boot_unconfirmed(&hal, &end);
+}
+
+static uint16_t record_end(void)
+{
+    uint16_t end;
+    (void)boot_unconfirmed(&hal, &end);
+    return end;
+}
+
+static const uint8_t *record(void)
+{
+    return hal.flash.mem[HAL_PAGE_BOOTREC];
+}
+
+static bool record_blank(void)
+{
+    for (uint16_t i = 0; i < HAL_FLASH_PAGE_BYTES; i++)
+        if (record()[i] != 0xFFu)
+            return false;
+    return true;
+}
+
+/* Marks past the first erased half-word (what a torn erase leaves). */
+static bool record_dirty(void)
+{
+    for (uint16_t i = (uint16_t)(record_end() + 2u); i < HAL_FLASH_PAGE_BYTES; i++)
+        if (record()[i] != 0xFFu)
+            return true;
+    return false;
+}
+
+static void put_mark(uint16_t off, uint16_t v)
+{
+    hal.flash.mem[HAL_PAGE_BOOTREC][off] = (uint8_t)v;
+    hal.flash.mem[HAL_PAGE_BOOTREC][off + 1u] = (uint8_t)(v >> 8);
+}
+
+/* A blank flash with a small valid application (the record tests run the bootloader's
+ * image check at every start: a short image keeps that cheap). */
+static void small_app(void)
+{
+    static uint8_t app[1100];
+    hal_host_init(&hal);
+    hal_host_image_build(app, sizeof app, arm->model_number, 1, 2);
+    hal_host_program_app(&hal, app, sizeof app);
+    /* The boot_start() calls of these tests stand for starts the watchdog ended: the
+     * ones that count (a start the power ended does not: see the bus tests). */
+    hal.power_reset = false;
+}
+
+/* ---- a servo on the bus ---------------------------------------------------------------- */
+
+static void power_on(void)
+{
+    hal_host_reboot(&hal);
+    servo_power_on(&s, arm, &hal);
+}
+
+static void factory(void)
+{
+    hal_host_init(&hal);
+    hal_host_attach_board(&hal, arm);
+    hal_host_program_factory(&hal, arm);
+    resets = 0;
+    power_on();
+}
+
+static void step(uint32_t us)
+{
+    hal.now_us += us;
+    servo_step(&s);
+    if (hal.restart_requested) {
+        resets++;
+        power_on();
+    }
+}
+
+static void run(uint32_t us)
+{
+    for (uint32_t t = 0; t < us; t += 1000u)
+        step(1000);
+}
+
+/* Put bytes on the wire at 9600 baud, then run wait_us in 100 us steps; the answer. */
+static uint16_t xfer_wait(const uint8_t *out, uint16_t n, uint8_t *ans, uint32_t wait_us)
+{
+    uint32_t seen = hal.log_len;
+    for (uint16_t i = 0; i < n; i++) {
+        hal.now_us += BYTE_US;
+        servo_rx_isr(&s, out[i]);
+        servo_step(&s);
+    }
+    for (uint32_t t = 0; t < wait_us; t += 100u)
+        step(100);
+    uint16_t got = 0;
+    while (seen < hal.log_len && got < 64u)
+        ans[got++] = hal_host_tx(&hal, seen++)->byte;
+    return got;
+}
+
+static uint16_t xfer(const uint8_t *out, uint16_t n, uint8_t *ans)
+{
+    return xfer_wait(out, n, ans, 60000u); /* 8 ms delay + an answer, with margin */
+}
+
+static bool pinged(uint8_t id)
+{
+    uint8_t pkt[8], ans[64];
+    uint16_t len = proto_build_packet(pkt, id, INS_PING, 0, 0);
+    return xfer(pkt, len, ans) == 7u;
+}
+
+static uint8_t version_of(uint8_t id)
+{
+    uint8_t pkt[8], ans[64];
+    const uint8_t params[2] = {REG_FIRMWARE_VERSION, 1};
+    uint16_t len = proto_build_packet(pkt, id, INS_READ, params, 2);
+    assert_int_equal(xfer(pkt, len, ans), 7u);
+    return ans[5];
+}
+
+/* ---- §10 frames (as tests/test_update.c builds them) ---------------------------------- */
+
+static uint8_t wire[WIRE_MAX];
+
+static uint16_t wire_frame(uint8_t *out, uint8_t id, uint8_t len_byte, const uint8_t *body,
+                           uint16_t n)
+{
+    out[0] = PROTO_HEADER0;
+    out[1] = PROTO_HEADER1;
+    out[2] = id;
+    out[3] = len_byte;
+    memcpy(&out[4], body, n);
+    out[4u + n] = proto_sum(&out[2], (uint16_t)(n + 2u));
+    return (uint16_t)(n + 5u);
+}
+
+static uint16_t block_frame(uint8_t *out, uint8_t id, uint8_t type, uint8_t num,
+                            const uint8_t *data)
+{
+    static uint8_t body[5u + PROTO_UPDATE_BLOCK_DATA + 2u];
+    uint16_t n = type == PROTO_UPDATE_TYPE_DATA ? PROTO_UPDATE_BLOCK_DATA : PROTO_UPDATE_HEADER_DATA;
+    body[0] = 0xFF;
+    body[1] = PROTO_UPDATE_SUB_BLOCK;
+    body[2] = type;
+    body[3] = num;
+    body[4] = (uint8_t)~num;
+    memcpy(&body[5], data, n);
+    uint16_t crc = crc16_update(0, data, n);
+    body[5u + n] = (uint8_t)(crc >> 8);
+    body[6u + n] = (uint8_t)crc;
+    uint16_t total = (uint16_t)(n + 7u);
+    return wire_frame(out, id, type == PROTO_UPDATE_TYPE_DATA ? 0xFFu : (uint8_t)(total + 1u), body,
+                      total);
+}
+
+/* Send and require exactly the status packet `D5 5D id LEN 00 data CHK`. */
+static void expect_answer(uint16_t n, uint8_t id, const uint8_t *data, uint8_t dn)
+{
+    uint8_t ans[64], want[16];
+    uint16_t wn = proto_build_packet(want, id, 0, data, dn);
+    uint16_t got = xfer(wire, n, ans);
+    assert_int_equal(got, wn);
+    assert_memory_equal(ans, want, wn);
+}
+
+static const uint8_t ACK[] = {UPDATE_ACK}, ACK_C[] = {UPDATE_ACK, UPDATE_READY};
+static const uint8_t READY[] = {UPDATE_READY};
+
+static void send_enter(uint8_t id)
+{
+    static const uint8_t body[] = {0xFF, PROTO_UPDATE_SUB_ENTER};
+    expect_answer(wire_frame(wire, id, 3, body, sizeof body), id, READY, 1);
+}
+
+/* A whole good session of img to id, up to and including the end-of-batch ACK. */
+static void send_image(uint8_t id, const uint8_t *img, uint32_t len)
+{
+    send_enter(id);
+    uint8_t h[PROTO_UPDATE_HEADER_DATA] = {(uint8_t)(len >> 24), (uint8_t)(len >> 16),
+                                     (uint8_t)(len >> 8), (uint8_t)len};
+    expect_answer(block_frame(wire, id, PROTO_UPDATE_TYPE_HEADER, 0, h), id, ACK_C, 2);
+    for (uint8_t b = 1; (uint32_t)(b - 1u) * PROTO_UPDATE_BLOCK_DATA < len; b++) {
+        uint8_t d[PROTO_UPDATE_BLOCK_DATA];
+        uint32_t at = (uint32_t)(b - 1u) * PROTO_UPDATE_BLOCK_DATA;
+        memset(d, 0xFF, sizeof d);
+        memcpy(d, &img[at], len - at < PROTO_UPDATE_BLOCK_DATA ? len - at : PROTO_UPDATE_BLOCK_DATA);
+        expect_answer(block_frame(wire, id, PROTO_UPDATE_TYPE_DATA, b, d), id, ACK, 1);
+    }
+    static const uint8_t eof[] = {0xFF, PROTO_UPDATE_SUB_BLOCK, PROTO_UPDATE_TYPE_EOF};
+    expect_answer(wire_frame(wire, id, 4, eof, sizeof eof), id, ACK_C, 2);
+    memset(h, 0, sizeof h);
+    expect_answer(block_frame(wire, id, PROTO_UPDATE_TYPE_HEADER, 0, h), id, ACK, 1);
+}
+
+#define IMG_LEN 3000u
+static uint8_t img[IMG_LEN];
+
+/* ---- the marks --------------------------------------------------------------------------- */
+
+/* A torn program leaves some of the bits it was clearing at 1; a torn erase sets some of
+ * the bits at 0 to 1. Either way a START reads as a START or as erased, a CONFIRM as a
+ * CONFIRM or as erased: every such value, exhaustively. */
+static void test_torn_marks_keep_their_kind(void **state)
+{
+    (void)state;
+    hal_host_init(&hal);
+    for (uint32_t x = 0; x < 0x100u; x++) {
+        memset(hal.flash.mem[HAL_PAGE_BOOTREC], 0xFF, HAL_FLASH_PAGE_BYTES);
+        put_mark(0, BOOT_MARK_CONFIRM); /* a confirmed start before */
+        put_mark(2, BOOT_MARK_START);
+        put_mark(4, (uint16_t)(BOOT_MARK_START | x)); /* a START, torn */
+        assert_int_equal(unconfirmed(), x == 0xFFu ? 1u : 2u);
+        assert_int_equal(record_end(), x == 0xFFu ? 4u : 6u);
+        put_mark(4, (uint16_t)(BOOT_MARK_CONFIRM | (x << 8))); /* a CONFIRM, torn */
+        assert_int_equal(unconfirmed(), x == 0xFFu ? 1u : 0u);
+        assert_int_equal(record_end(), x == 0xFFu ? 4u : 6u);
+    }
+}
+
+/* The log: a start mark before each start, a confirm after it; erased, it counts none. */
+static void test_start_and_confirm_marks(void **state)
+{
+    (void)state;
+    factory(); /* power_on: boot_start wrote the first START */
+    assert_int_equal(unconfirmed(), 1);
+    assert_int_equal(record()[0] | record()[1] << 8, BOOT_MARK_START);
+    assert_true(boot_confirm(&hal, false));
+    assert_int_equal(unconfirmed(), 0);
+    assert_int_equal(record()[2] | record()[3] << 8, BOOT_MARK_CONFIRM);
+    assert_int_equal(record_end(), 4);
+    assert_true(boot_confirm(&hal, false)); /* nothing to confirm: nothing written */
+    assert_int_equal(record_end(), 4);
+    /* Three starts with no confirm, each ended by the watchdog: the fourth is refused,
+     * the image stays installed. */
+    hal.power_reset = false;
+    for (uint16_t n = 1; n <= BOOT_STARTS_MAX; n++) {
+        assert_true(boot_start(&hal, arm->model_number));
+        assert_int_equal(unconfirmed(), n);
+    }
+    uint32_t ops = hal.flash.ops;
+    assert_false(boot_start(&hal, arm->model_number));
+    assert_int_equal(hal.flash.ops, ops); /* refusing writes nothing */
+    assert_true(image_valid(&hal, HAL_PAGE_APP, arm->model_number, 0));
+}
+
+/* ---- a good image -------------------------------------------------------------------- */
+
+/* Confirmed once its first answer has left the wire: not while it is being sent. */
+static void test_good_image_confirms_at_first_answer(void **state)
+{
+    (void)state;
+    factory();
+    assert_false(s.in_loader);
+    assert_true(hal.watchdog_started); /* the bootloader's, before the jump */
+    run(50000);
+    assert_int_equal(unconfirmed(), 1);
+    uint8_t pkt[8];
+    uint16_t n = proto_build_packet(pkt, 1, INS_PING, 0, 0);
+    for (uint16_t i = 0; i < n; i++) {
+        hal.now_us += BYTE_US;
+        servo_rx_isr(&s, pkt[i]);
+        servo_step(&s);
+    }
+    uint32_t sent = hal.sends;
+    while (hal.sends == sent) /* the return delay */
+        step(100);
+    while (hal_uart_tx_busy(&hal)) {
+        assert_int_equal(unconfirmed(), 1); /* the answer is still on the wire */
+        step(100);
+    }
+    step(100);
+    assert_int_equal(unconfirmed(), 0);
+    assert_true(s.confirmed);
+}
+
+/* With nobody talking to it, it confirms after BOOT_CONFIRM_US of its main loop. */
+static void test_good_image_confirms_after_a_while(void **state)
+{
+    (void)state;
+    factory();
+    run(BOOT_CONFIRM_US - 10000u);
+    assert_int_equal(unconfirmed(), 1);
+    assert_false(s.confirmed);
+    run(20000);
+    assert_int_equal(unconfirmed(), 0);
+    assert_true(s.confirmed);
+    assert_int_equal(resets, 0);
+}
+
+/* 400 power cycles, confirmed either way: never update mode; the application erases the
+ * record once it is half full, so it never fills. */
+static void test_good_image_never_falls_back(void **state)
+{
+    (void)state;
+    factory();
+    uint32_t erases = hal.flash.erases[HAL_PAGE_BOOTREC];
+    for (uint32_t i = 0; i < 400u; i++) {
+        assert_false(s.in_loader);
+        assert_int_equal(unconfirmed(), 1);
+        if (i % 2u)
+            assert_true(pinged(1));
+        else
+            run(BOOT_CONFIRM_US + 1000u);
+        assert_int_equal(unconfirmed(), 0);
+        assert_true(record_end() < BOOT_TIDY_BYTES + 4u);
+        power_on();
+    }
+    assert_int_equal(hal.flash.erases[HAL_PAGE_BOOTREC] - erases, 400u / (BOOT_TIDY_BYTES / 4u));
+    assert_int_equal(resets, 0);
+}
+
+/* ---- an image that hangs at start ------------------------------------------------------ */
+
+/* Installed over the bus, it hangs: the watchdog resets it three times, then the servo
+ * stays in update mode, also across power cycles, answering only the update; a good
+ * image then installs, starts and confirms. */
+static void test_hanging_image_leaves_update_mode_reachable(void **state)
+{
+    (void)state;
+    factory();
+    assert_true(pinged(1));
+    hal_host_image_build(img, IMG_LEN, arm->model_number, 7, 3);
+    hal_host_image_hang(img, IMG_LEN);
+    assert_true(image_valid(&hal, HAL_PAGE_APP, arm->model_number, 0));
+    send_image(1, img, IMG_LEN);
+    step(50000); /* the ACK is out: restart, install, start it */
+    assert_int_equal(resets, 1);
+    assert_true(s.hung);
+    assert_true(image_valid(&hal, HAL_PAGE_APP, arm->model_number, 0)); /* a valid image */
+    assert_int_equal(unconfirmed(), 1); /* the install emptied the record */
+    for (uint16_t start = 2; start <= BOOT_STARTS_MAX; start++) {
+        run(SERVO_WATCHDOG_US); /* never fed: the watchdog resets it */
+        assert_int_equal(resets, start);
+        assert_true(s.hung);
+        assert_int_equal(unconfirmed(), start);
+    }
+    run(SERVO_WATCHDOG_US);
+    assert_true(s.in_loader); /* the fourth boot: update mode */
+    assert_true(hal.watchdog_started);
+    uint32_t r = resets;
+    run(2000000);
+    assert_int_equal(resets, r); /* it stays there, fed */
+    /* A power cycle gives the image another try (a start the power ended proves
+     * nothing); the watchdog ends three more, and update mode is back. */
+    power_on();
+    assert_true(s.hung);
+    assert_int_equal(unconfirmed(), 1);
+    run(BOOT_STARTS_MAX * SERVO_WATCHDOG_US + SERVO_WATCHDOG_US / 2);
+    assert_true(s.in_loader);
+    assert_int_equal(unconfirmed(), BOOT_STARTS_MAX);
+    /* What the host sees: PING unanswered, the §10 handshake answered 'C'. */
+    assert_false(pinged(1));
+    send_enter(1);
+    hal_host_image_build(img, IMG_LEN, arm->model_number, 8, 4);
+    send_image(1, img, IMG_LEN);
+    step(50000);
+    assert_false(s.in_loader);
+    assert_false(s.hung);
+    assert_int_equal(unconfirmed(), 1);
+    assert_int_equal(version_of(1), 8);
+    assert_int_equal(unconfirmed(), 0); /* confirmed by that answer */
+    power_on();
+    assert_false(s.in_loader);
+}
+
+/* The same image programmed at the factory (no install to empty the record). */
+static void test_hanging_factory_image(void **state)
+{
+    (void)state;
+    hal_host_init(&hal);
+    hal_host_attach_board(&hal, arm);
+    static uint8_t big[HAL_HOST_FACTORY_BYTES];
+    hal_host_image_build(big, sizeof big, arm->model_number, SERVO_FW_VERSION, 1);
+    hal_host_image_hang(big, sizeof big);
+    hal_host_program_app(&hal, big, sizeof big);
+    resets = 0;
+    power_on();
+    run(5 * SERVO_WATCHDOG_US);
+    assert_int_equal(resets, BOOT_STARTS_MAX);
+    assert_true(s.in_loader);
+}
+
+/* A start the power cut short (a robot switched off within BOOT_CONFIRM_US, before any
+ * answer) is not a failed start: only the watchdog or a fault ending a start counts
+ * (hal_reset_by_power). Any number of short power-ups leave a good image running. */
+static void test_short_power_ups_never_lock_a_good_image(void **state)
+{
+    (void)state;
+    factory();
+    for (int i = 0; i < 3 * (int)BOOT_STARTS_MAX; i++) {
+        run(1000000);
+        power_on();
+        assert_false(s.in_loader);
+        assert_int_equal(unconfirmed(), 1); /* this start only */
+    }
+    assert_true(pinged(1));
+}
+
+/* ---- the record's erases ---------------------------------------------------------------- */
+
+/* Half full: the confirm is written at once, the erase waits until the servo is quiet. */
+static void test_tidy_waits_for_quiet(void **state)
+{
+    (void)state;
+    small_app();
+    for (uint16_t off = 0; off < BOOT_TIDY_BYTES; off += 4u) {
+        put_mark(off, BOOT_MARK_START);
+        put_mark((uint16_t)(off + 2u), BOOT_MARK_CONFIRM);
+    }
+    assert_true(boot_start(&hal, arm->model_number));
+    assert_int_equal(unconfirmed(), 1);
+    assert_false(boot_confirm(&hal, false));
+    assert_int_equal(unconfirmed(), 0);
+    assert_int_equal(record_end(), BOOT_TIDY_BYTES + 4u);
+    assert_false(boot_confirm(&hal, false));
+    assert_int_equal(record_end(), BOOT_TIDY_BYTES + 4u); /* not written twice */
+    assert_true(boot_confirm(&hal, true));
+    assert_true(record_blank());
+}
+
+/* Full (nothing erased it): the start goes uncounted, the application erases it. */
+static void test_full_record(void **state)
+{
+    (void)state;
+    small_app();
+    for (uint16_t off = 0; off < HAL_FLASH_PAGE_BYTES; off += 4u) {
+        put_mark(off, BOOT_MARK_START);
+        put_mark((uint16_t)(off + 2u), BOOT_MARK_CONFIRM);
+    }
+    uint32_t ops = hal.flash.ops;
+    assert_true(boot_start(&hal, arm->model_number));
+    assert_int_equal(hal.flash.ops, ops);
+    assert_true(boot_confirm(&hal, true));
+    assert_true(record_blank());
+}
+
+/* What a torn erase leaves past the end of the log: marks written up to it join it to
+ * the log, where they may read as starts, so the confirm is written again past them;
+ * marks further away are erased by the next confirm, once the servo is quiet. */
+static void test_torn_erase_leftovers(void **state)
+{
+    (void)state;
+    small_app();
+    put_mark(0, BOOT_MARK_START);
+    put_mark(2, BOOT_MARK_CONFIRM);
+    put_mark(8, BOOT_MARK_START); /* survivors past two erased half-words */
+    put_mark(10, BOOT_MARK_START);
+    assert_true(boot_start(&hal, arm->model_number));
+    assert_int_equal(record_end(), 6);
+    assert_int_equal(unconfirmed(), 1);
+    assert_true(record_dirty());
+    assert_true(boot_confirm(&hal, false)); /* C at 6 joins 8 and 10; C again at 12 */
+    assert_int_equal(unconfirmed(), 0);
+    assert_int_equal(record_end(), 14);
+    assert_false(record_dirty());
+
+    memset(hal.flash.mem[HAL_PAGE_BOOTREC], 0xFF, HAL_FLASH_PAGE_BYTES);
+    put_mark(0, BOOT_MARK_START);
+    put_mark(2, BOOT_MARK_CONFIRM);
+    put_mark(10, BOOT_MARK_START); /* further away: not reached */
+    assert_true(boot_start(&hal, arm->model_number));
+    assert_false(boot_confirm(&hal, false));
+    assert_int_equal(unconfirmed(), 0);
+    assert_int_equal(record_end(), 8);
+    assert_true(record_dirty());
+    assert_true(boot_confirm(&hal, true));
+    assert_true(record_blank());
+}
+
+/* ---- power cuts ---------------------------------------------------------------------- */
+
+/* One start as the bootloader and a good application make it: the start mark, then the
+ * confirm (and the erase when due), with the servo always quiet. A cut ends the boot. */
+static bool one_boot(void)
+{
+    bool started = boot_start(&hal, arm->model_number);
+    if (started)
+        while (hal.flash.powered && !boot_confirm(&hal, true)) {
+        }
+    return started;
+}
+
+#define HISTORY 150u /* starts: past BOOT_TIDY_BYTES once (one erase) */
+
+/* A cut at every flash operation of HISTORY good starts, in each of the three ways:
+ * every start still starts the application, and once the next start is confirmed the
+ * record counts none and holds nothing past its end. */
+static void test_power_cut_at_every_record_operation(void **state)
+{
+    (void)state;
+    small_app();
+    static uint8_t blank_record[HAL_FLASH_PAGE_BYTES];
+    memset(blank_record, 0xFF, sizeof blank_record);
+    hal.flash.ops = 0;
+    for (uint32_t i = 0; i < HISTORY; i++)
+        assert_true(one_boot());
+    uint32_t total = hal.flash.ops;
+    assert_int_equal(total, 2u * HISTORY + 1u); /* a start, a confirm each, one erase */
+
+    uint32_t scenarios = 0;
+    for (uint8_t kind = FLASH_CUT_CLEAN; kind <= FLASH_CUT_TORN; kind++) {
+        for (uint32_t k = 1; k <= total; k++) {
+            memcpy(hal.flash.mem[HAL_PAGE_BOOTREC], blank_record, HAL_FLASH_PAGE_BYTES);
+            flash_sim_power_on(&hal.flash);
+            hal.flash.cut_kind = kind;
+            hal.flash.cut_at = k;
+            for (uint32_t i = 0; i < HISTORY; i++) {
+                uint16_t before = unconfirmed();
+                if (!one_boot())
+                    fail_msg("cut %u (kind %u) at operation %u: start %u refused", scenarios,
+                             kind, k, i);
+                if (!hal.flash.powered) { /* this boot ended in the cut */
+                    flash_sim_power_on(&hal.flash);
+                    if (unconfirmed() > before + 1u)
+                        fail_msg("cut at operation %u (kind %u): %u unconfirmed, was %u", k,
+                                 kind, unconfirmed(), before);
+                }
+            }
+            assert_true(one_boot());
+            assert_true(one_boot());
+            assert_int_equal(unconfirmed(), 0);
+            assert_false(record_dirty());
+            scenarios++;
+        }
+    }
+    print_message("record power cuts: %u scenarios (%u operations x 3)\n", scenarios, total);
+}
+
+/* After two failed starts a cut while writing the third start's mark counts as a start
+ * (as a cut anywhere before the confirm would): at most one count per cut. */
+static void test_cut_counts_at_most_one_start(void **state)
+{
+    (void)state;
+    for (uint8_t kind = FLASH_CUT_CLEAN; kind <= FLASH_CUT_TORN; kind++) {
+        for (uint32_t trial = 0; trial < 64u; trial++) {
+            small_app();
+            hal.flash.rng ^= trial * 0x9E3779B9u; /* other torn bits each trial */
+            assert_true(boot_start(&hal, arm->model_number));
+            assert_true(boot_start(&hal, arm->model_number));
+            hal.flash.ops = 0;
+            hal.flash.cut_kind = kind;
+            hal.flash.cut_at = 1;
+            (void)boot_start(&hal, arm->model_number);
+            flash_sim_power_on(&hal.flash);
+            uint16_t n = unconfirmed();
+            assert_true(n == 2u || n == 3u);
+            if (kind == FLASH_CUT_CLEAN)
+                assert_int_equal(n, 2);
+            if (kind == FLASH_CUT_DONE)
+                assert_int_equal(n, 3);
+            assert_int_equal(boot_start(&hal, arm->model_number), n < BOOT_STARTS_MAX);
+        }
+    }
+}
+
+/* A locked servo (three unconfirmed starts) with a verified image staged: a cut at every
+ * flash operation of the install, three ways; when the power is back the new image is
+ * installed and starts with a fresh record. */
+static void test_install_empties_record_through_cuts(void **state)
+{
+    (void)state;
+    static uint8_t staged_flash[FLASH_SIM_PAGES][HAL_FLASH_PAGE_BYTES];
+    static uint8_t new_img[2200];
+    small_app();
+    for (uint16_t n = 0; n < BOOT_STARTS_MAX; n++)
+        assert_true(boot_start(&hal, arm->model_number));
+    assert_false(boot_start(&hal, arm->model_number));
+    /* Stage and mark an image as a verified session does. */
+    hal_host_image_build(new_img, sizeof new_img, arm->model_number, 5, 9);
+    for (uint8_t p = 0; (uint32_t)p * HAL_FLASH_PAGE_BYTES < sizeof new_img; p++) {
+        uint8_t page[HAL_FLASH_PAGE_BYTES];
+        uint32_t at = (uint32_t)p * HAL_FLASH_PAGE_BYTES;
+        memset(page, 0xFF, sizeof page);
+        memcpy(page, &new_img[at],
+               sizeof new_img - at < HAL_FLASH_PAGE_BYTES ? sizeof new_img - at : HAL_FLASH_PAGE_BYTES);
+        assert_true(image_write_page(&hal, (uint8_t)(HAL_PAGE_STAGING + p), page));
+    }
+    assert_true(hal_flash_program(&hal, IMAGE_MARK_PAGE, IMAGE_MARK_OFFSET, IMAGE_MARK_SET));
+    memcpy(staged_flash, hal.flash.mem, sizeof staged_flash);
+    hal.flash.ops = 0;
+    assert_true(boot_start(&hal, arm->model_number));
+    uint32_t total = hal.flash.ops;
+    assert_int_equal(unconfirmed(), 1);
+    for (uint8_t kind = FLASH_CUT_CLEAN; kind <= FLASH_CUT_TORN; kind++) {
+        for (uint32_t k = 1; k <= total; k++) {
+            memcpy(hal.flash.mem, staged_flash, sizeof staged_flash);
+            flash_sim_power_on(&hal.flash);
+            hal.flash.cut_kind = kind;
+            hal.flash.cut_at = k;
+            (void)boot_start(&hal, arm->model_number);
+            assert_false(hal.flash.powered);
+            flash_sim_power_on(&hal.flash);
+            if (!boot_start(&hal, arm->model_number))
+                fail_msg("cut at install operation %u (kind %u): still locked", k, kind);
+            assert_true(unconfirmed() >= 1u && unconfirmed() <= 2u);
+            assert_memory_equal(hal.flash.mem[HAL_PAGE_APP], new_img, HAL_FLASH_PAGE_BYTES);
+        }
+    }
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_torn_marks_keep_their_kind),
+        cmocka_unit_test(test_start_and_confirm_marks),
+        cmocka_unit_test(test_good_image_confirms_at_first_answer),
+        cmocka_unit_test(test_good_image_confirms_after_a_while),
+        cmocka_unit_test(test_good_image_never_falls_back),
+        cmocka_unit_test(test_hanging_image_leaves_update_mode_reachable),
+        cmocka_unit_test(test_hanging_factory_image),
+        cmocka_unit_test(test_short_power_ups_never_lock_a_good_image),
+        cmocka_unit_test(test_tidy_waits_for_quiet),
+        cmocka_unit_test(test_full_record),
+        cmocka_unit_test(test_torn_erase_leftovers),
+        cmocka_unit_test(test_power_cut_at_every_record_operation),
+        cmocka_unit_test(test_cut_counts_at_most_one_start),
+        cmocka_unit_test(test_install_empties_record_through_cuts),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
