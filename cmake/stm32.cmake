@@ -95,7 +95,9 @@ endfunction()
 set(image servo-${SERVO_IMAGE_NAME})
 add_executable(${image}.elf ${SERVO_PORT_SOURCES} ${SERVO_APP_PORT_SOURCES}
     hal/stm32f1/main.c
-    hal/stm32f1/image_info.c)
+    hal/stm32f1/image_info.c
+    hal/stm32f1/libc_small.c
+    hal/stm32f1/divmod64.c)
 target_include_directories(${image}.elf PRIVATE hal/stm32f1 board/${BOARD})
 target_link_libraries(${image}.elf PRIVATE servo_core)
 target_compile_definitions(${image}.elf PRIVATE SERVO_BOARD=board_${BOARD}
@@ -124,7 +126,7 @@ set(boot servo-boot-${SERVO_IMAGE_NAME})
 add_executable(${boot}.elf ${SERVO_PORT_SOURCES}
     hal/stm32f1/flash.c
     hal/stm32f1/boot_main.c
-    hal/stm32f1/boot_libc.c
+    hal/stm32f1/libc_small.c
     src/frame_rx.c
     src/link.c
     src/proto.c
@@ -137,7 +139,7 @@ add_executable(${boot}.elf ${SERVO_PORT_SOURCES}
     src/servo.c
     board/boards.c)
 target_include_directories(${boot}.elf PRIVATE include hal hal/stm32f1 board/${BOARD})
-set_source_files_properties(hal/stm32f1/boot_libc.c PROPERTIES
+set_source_files_properties(hal/stm32f1/libc_small.c PROPERTIES
                             COMPILE_OPTIONS -fno-tree-loop-distribute-patterns)
 # FRAME_RX_FAST=0: the smaller receiver (frame_rx.c), for the bootloader's flash target.
 target_compile_definitions(${boot}.elf PRIVATE SERVO_BOOTLOADER FRAME_RX_FAST=0

@@ -123,6 +123,7 @@ struct regs {
         uint16_t half[REGS_SIZE / 2u];
     };
     const struct board *board;
+    uint8_t ee_changed; /* a writable EEPROM register changed value: the store has work */
 };
 
 #if __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
@@ -135,8 +136,12 @@ bool regs_applicable(const struct board *b, uint8_t addr);
 /* Factory value of the register starting at addr (0 for reserved addresses). */
 uint16_t regs_default(const struct board *b, uint8_t addr);
 
-/* Fill every register with its factory value. */
+/* Fill every register with its factory value (power-up: nothing marked as changed). */
 void regs_init(struct regs *r, const struct board *b);
+
+/* RESET: every register of an initialised table back to its factory value, through
+ * regs_set() (so a changed EEPROM value is marked). */
+void regs_reset(struct regs *r);
 
 /* Value of a register of size bytes (1 or 2) stored little-endian at p. */
 uint16_t regs_value(const uint8_t *p, uint8_t size);
@@ -144,8 +149,14 @@ uint16_t regs_value(const uint8_t *p, uint8_t size);
 /* Value of the register that starts at addr (1 or 2 bytes, little-endian). */
 uint16_t regs_get(const struct regs *r, uint8_t addr);
 
-/* Set the register that starts at addr, without validation (the core's own updates). */
+/* Set the register that starts at addr, without validation (the core's own updates).
+ * Marks the table when a writable EEPROM register gets a different value: every change
+ * the store must keep goes through here. */
 void regs_set(struct regs *r, uint8_t addr, uint16_t value);
+
+/* Main loop: did a writable EEPROM register change value since the last call? Clears
+ * the mark. */
+bool regs_take_ee_changed(struct regs *r);
 
 /* Copy count bytes from addr for a READ: reserved, write-only and not-applicable
  * addresses read as 0. The caller has checked addr + count <= REGS_SIZE. */

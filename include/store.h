@@ -12,8 +12,10 @@
  * which counts once its commit mark is written; the old page stays valid until then.
  * Recovery at boot only reads. See docs/persistence.md for the argument.
  *
- * Main loop only. The main loop syncs after every dispatched packet; any other code that
- * changes an EEPROM register (homing, START/END) calls store_sync() itself. */
+ * Main loop only, and only servo_poll() calls it: every change of a stored register goes
+ * through regs_set(), which marks the table; at the end of a main-loop pass in which the
+ * table was marked, servo_poll() calls store_sync() (docs/persistence.md, "For host
+ * tools", states what this guarantees a host). */
 #ifndef STORE_H
 #define STORE_H
 
@@ -61,8 +63,9 @@ void store_read(struct hal *hal, struct store_values *out);
 void store_load(struct store *st, struct hal *hal, struct regs *r, uint32_t now_us);
 
 /* Make the flash hold r's EEPROM registers: one all-or-nothing commit of what changed,
- * none if nothing did. Past the burst allowance commits are spaced refill_us apart; a
- * change that has to wait stays pending and store_poll() commits it. */
+ * none if nothing did (every register compared whole with what the flash holds). Past
+ * the burst allowance commits are spaced refill_us apart; a change that has to wait stays
+ * pending and store_poll() commits it. */
 void store_sync(struct store *st, const struct regs *r, uint32_t now_us);
 
 /* Main loop: commit a pending change when allowed; when the motor is idle, erase the
@@ -70,8 +73,8 @@ void store_sync(struct store *st, const struct regs *r, uint32_t now_us);
  * CPU for tens of milliseconds). */
 void store_poll(struct store *st, const struct regs *r, uint32_t now_us, bool idle);
 
-/* Commit a pending change now, past the rate limit: the servo is about to restart (a
- * firmware update, once per update), and a waiting change must not be lost. */
+/* Commit whatever differs from the flash now, past the rate limit: the servo is about to
+ * restart (a firmware update, once per update), and a waiting change must not be lost. */
 void store_flush(struct store *st, const struct regs *r, uint32_t now_us);
 
 /* Number of record slots in a page, for tests and benchmarks. */

@@ -57,7 +57,7 @@ uint8_t dispatch_write(struct servo *s, uint8_t addr, const uint8_t *data, uint8
 void dispatch_factory_reset(struct servo *s)
 {
     motion_reset(s);
-    regs_init(&s->regs, s->board);
+    regs_reset(&s->regs); /* what differs from the factory value is marked for the store */
     s->regs.mem[REG_FIRMWARE_VERSION] = s->fw_version;
     s->held.n = 0;
     traj_clear(&s->traj);

@@ -137,19 +137,35 @@ uint16_t regs_get(const struct regs *r, uint8_t addr)
 
 void regs_set(struct regs *r, uint8_t addr, uint16_t value)
 {
-    if (regs_table[addr].size == 2)
+    const struct reg_desc *d = &regs_table[addr];
+    if (d->area == REG_AREA_EE && (d->access & REG_ACCESS_W) && regs_get(r, addr) != value)
+        r->ee_changed = 1;
+    if (d->size == 2)
         r->half[addr >> 1] = value; /* one aligned store: never torn */
     else
         r->mem[addr] = (uint8_t)value;
+}
+
+void regs_reset(struct regs *r)
+{
+    for (uint8_t a = 0; a < REGS_SIZE; a++)
+        if (regs_applicable(r->board, a))
+            regs_set(r, a, regs_default(r->board, a));
 }
 
 void regs_init(struct regs *r, const struct board *b)
 {
     memset(r->mem, 0, sizeof r->mem);
     r->board = b;
-    for (uint8_t a = 0; a < REGS_SIZE; a++)
-        if (regs_applicable(b, a))
-            regs_set(r, a, regs_default(b, a));
+    regs_reset(r);
+    r->ee_changed = 0;
+}
+
+bool regs_take_ee_changed(struct regs *r)
+{
+    bool changed = r->ee_changed != 0u;
+    r->ee_changed = 0;
+    return changed;
 }
 
 void regs_read(const struct regs *r, uint8_t addr, uint8_t count, uint8_t *out)

