@@ -141,9 +141,7 @@ add_executable(${boot}.elf ${SERVO_PORT_SOURCES}
 target_include_directories(${boot}.elf PRIVATE include hal hal/stm32f1 board/${BOARD})
 set_source_files_properties(hal/stm32f1/libc_small.c PROPERTIES
                             COMPILE_OPTIONS -fno-tree-loop-distribute-patterns)
-# FRAME_RX_FAST=0: the smaller receiver (frame_rx.c), for the bootloader's flash target.
-target_compile_definitions(${boot}.elf PRIVATE SERVO_BOOTLOADER FRAME_RX_FAST=0
-                           SERVO_BOARD=board_${BOARD}
+target_compile_definitions(${boot}.elf PRIVATE SERVO_BOOTLOADER SERVO_BOARD=board_${BOARD}
                            SERVO_MODEL=${SERVO_MODEL} SERVO_FW_VERSION=${SERVO_FW_VERSION})
 servo_link_and_check(${boot} ${SERVO_LDDIR}/${BOARD_MCU}-boot.ld
     "${CMAKE_BINARY_DIR}/CMakeFiles/${boot}.elf.dir" -DGOAL_FLASH=6144)

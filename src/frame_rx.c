@@ -5,13 +5,6 @@
 #include "frame_rx.h"
 #include "proto.h"
 
-/* 1: frame_rx_byte() stores a frame's parameter bytes on a short path (about 40 fewer
- * Cortex-M3 instructions per byte); 0: every byte through parser_step(), 74 bytes of
- * code less (the STM32 bootloader's choice: its flash target, docs/update.md). */
-#ifndef FRAME_RX_FAST
-#define FRAME_RX_FAST 1
-#endif
-
 #define MASK (FRAME_SLOTS - 1u)
 #define READY_MASK (FRAME_READY - 1u)
 #define NO_SLOT 0xFFu
@@ -207,20 +200,6 @@ void frame_rx_byte(struct frame_rx *rx, uint8_t b, uint32_t now_us)
         }
         return;
     }
-
-    /* Most bytes: a parameter of the frame in progress (LEN known, not its last byte,
-     * not the block type byte parser_step looks at), no candidate frame beside it and
-     * no header starting one. Stored here, without parser_step's checks. */
-#if FRAME_RX_FAST /* preprocessor, not if (): with 0 the code is the same as without */
-    struct frame_parser *m = &rx->main;
-    if (!rx->shadow_running && !header && m->pos >= 2u && m->pos != 4u &&
-        m->pos + 1u < m->need) {
-        uint8_t *buf = m->slot == FRAME_BLOCK ? rx->block.buf : rx->slot[m->slot].buf;
-        buf[m->pos++] = b;
-        m->sum = (uint8_t)(m->sum + b);
-        return;
-    }
-#endif
 
     if (rx->shadow_running) {
         uint8_t r = parser_step(rx, &rx->shadow, b, now_us);
