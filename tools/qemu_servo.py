@@ -128,7 +128,8 @@ def main():
         print("The arm (ID 1, 9600 baud, factory settings) runs on QEMU's "
               "stm32vldiscovery; USART1 is the bus:")
         print(f"  servoctl --port {q.url} scan")
-        print(f"  (or PYTHONPATH=tools/python /usr/bin/python3 -m servobus --port {q.url} scan)")
+        print(f"  (or PYTHONPATH=tools/python /usr/bin/python3 -m servobus --port {q.url} scan;"
+              " on a heavily loaded machine add --timeout 1: QEMU runs in host time)")
         print("Ctrl-C stops it.", flush=True)
         q.proc.wait()
         sys.exit("qemu: QEMU exited (%d): %s" % (q.proc.returncode, q.stop()))

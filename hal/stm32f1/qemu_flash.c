@@ -25,7 +25,6 @@
 
 #define RAM_PAGES 2u
 #define RAM_FLASH_BASE 0x20001800u /* 0x20000000 + BUDGET_RAM (6 KiB) */
-#define RAM_FLASH ((uint8_t(*)[HAL_FLASH_PAGE_BYTES])RAM_FLASH_BASE)
 #define NO_BUFFER 0xFFu
 
 _Static_assert(RAM_FLASH_BASE + RAM_PAGES * HAL_FLASH_PAGE_BYTES == 0x20002000u,
@@ -41,6 +40,13 @@ struct ram_flash {
 
 static struct ram_flash ram;
 
+/* Page buffer b (0 or 1). */
+static uint8_t *ram_page(uint32_t b)
+{
+    uint8_t *page = (uint8_t *)(uintptr_t)(RAM_FLASH_BASE + b * HAL_FLASH_PAGE_BYTES);
+    return page;
+}
+
 /* QEMU's flash under page p: the store's 4 KiB, then both slots. */
 static const uint8_t *rom_page(uint8_t p)
 {
@@ -55,7 +61,7 @@ const uint8_t *hal_flash_page(struct hal *h, uint8_t p)
 {
     (void)h;
     if (p < HAL_FLASH_PAGES && ram.buffer[p])
-        return RAM_FLASH[ram.buffer[p] - 1u];
+        return ram_page(ram.buffer[p] - 1u);
     return rom_page(p);
 }
 
@@ -65,18 +71,18 @@ const uint8_t *hal_flash_page(struct hal *h, uint8_t p)
  * the buffers (cannot link: BUDGET_RAM). */
 static uint8_t *page_for_write(uint8_t p)
 {
-    if (p >= HAL_FLASH_PAGES || _ram_end > RAM_FLASH[0])
+    if (p >= HAL_FLASH_PAGES || _ram_end > ram_page(0))
         return 0;
     if (!ram.buffer[p]) {
         uint8_t b = ram.used < RAM_PAGES ? ram.used++ : (uint8_t)(ram.newest == 1u ? 1u : 0u);
         for (uint8_t q = 0; q < HAL_FLASH_PAGES; q++)
             if (ram.buffer[q] == b + 1u)
                 ram.buffer[q] = 0;
-        memcpy(RAM_FLASH[b], rom_page(p), HAL_FLASH_PAGE_BYTES);
+        memcpy(ram_page(b), rom_page(p), HAL_FLASH_PAGE_BYTES);
         ram.buffer[p] = (uint8_t)(b + 1u);
     }
     ram.newest = ram.buffer[p];
-    return RAM_FLASH[ram.buffer[p] - 1u];
+    return ram_page(ram.buffer[p] - 1u);
 }
 
 bool hal_flash_erase(struct hal *h, uint8_t p)
