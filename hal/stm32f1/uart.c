@@ -68,10 +68,12 @@ RAMFUNC void usart1_handler(void)
             h->rx_overruns++; /* a byte before this one was lost; this one is good */
         if (sr & USART_SR_FE)
             h->rx_errors++; /* a broken byte (or a break): drop it */
-        else if (!h->tx_active && RX_FAST)
-            servo_rx_isr_at(h->servo, byte, rx_clock_us(h));
-        else if (!h->tx_active)
-            servo_rx_isr(h->servo, byte);
+        else if (!h->tx_active) {
+            if (RX_FAST)
+                servo_rx_isr_at(h->servo, byte, rx_clock_us(h));
+            else
+                servo_rx_isr(h->servo, byte);
+        }
     }
     if (!RX_FAST || h->tx_active) /* TXEIE and TCIE are only ever on while sending */
         tx_step(h);
