@@ -2,7 +2,8 @@
 # what is missing first (tools/install-deps.sh).
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 
-.PHONY: all deps host stm32 test lint fuzz bench demo demo-bytes docs clean firmware flash studio
+.PHONY: all deps host stm32 qemu qemu-image test lint fuzz bench demo demo-bytes docs clean \
+	firmware flash studio
 
 # Firmware images: every reference board (board/<name>/), or the one `make flash` writes.
 BOARDS := base foot arm wrist finger
@@ -25,7 +26,17 @@ stm32: deps
 	cmake --preset stm32
 	cmake --build --preset stm32 -j $(JOBS)
 
-test: host stm32 firmware lint
+# The arm for QEMU (preset qemu: plant model and RAM flash in place of motor and flash
+# controller): build/qemu/servo-qemu-full.bin and servo-qemu.elf. `make qemu` boots it on
+# qemu-system-arm -M stm32vldiscovery, USART1 on a TCP port, until Ctrl-C.
+qemu-image: deps
+	cmake --preset qemu
+	cmake --build --preset qemu -j $(JOBS)
+
+qemu: qemu-image
+	@/usr/bin/python3 tools/qemu_servo.py
+
+test: host stm32 qemu-image firmware lint
 	ctest --preset host -j $(JOBS)
 
 # Static analysis, zero findings (docs/lint.md): cppcheck + MISRA addon, clang-tidy,
@@ -72,7 +83,7 @@ flash: deps
 	    "USB-UART adapter or give PORT=/dev/ttyUSBn" >&2; exit 1; }; \
 	$$cmd
 
-bench: deps
+bench: deps qemu-image
 	cmake --preset bench
 	cmake --build --preset bench -j $(JOBS)
 	tools/bench.sh build/bench
@@ -80,8 +91,9 @@ bench: deps
 # The main job on the virtual servo bus: servo-sim + the Python SDK, in real time
 # (about 25 s), writing build/demo.png. `make demo-bytes` shows the same bus byte by byte
 # in virtual time.
-demo: host
-	/usr/bin/python3 tools/demo.py build/demo.png
+# QEMU=1: the same session against the arm firmware under QEMU (make qemu's image).
+demo: host $(if $(QEMU),qemu-image)
+	/usr/bin/python3 tools/demo.py $(if $(QEMU),--qemu) build/demo.png
 
 # Servo Studio in the browser on servo-sim with an arm, a foot and a base: prints the
 # address to open (docs/studio.md). Ctrl-C stops both.

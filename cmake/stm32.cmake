@@ -38,8 +38,25 @@ set(SERVO_PORT_SOURCES
     hal/stm32f1/clock.c
     hal/stm32f1/gpio.c
     hal/stm32f1/uart.c
-    hal/stm32f1/flash.c
     hal/stm32f1/iwdg.c)
+
+# The application's motor, sensors and flash. SERVO_QEMU (CMake preset `qemu`): the arm
+# for QEMU's stm32vldiscovery, which models none of them: the arm's plant model in
+# integer arithmetic instead of the motor, encoder, ADC and photo switches, and the
+# store's pages in RAM instead of the flash controller (hal/stm32f1/README.md). The
+# image is then servo-qemu; the bootloader, the rest of the port and the core are the
+# arm's.
+option(SERVO_QEMU "Build the arm for QEMU's stm32vldiscovery (plant model, RAM flash)" OFF)
+if(SERVO_QEMU)
+    if(NOT BOARD STREQUAL "arm")
+        message(FATAL_ERROR "SERVO_QEMU: the plant model is the arm's (BOARD=arm)")
+    endif()
+    set(SERVO_IMAGE_NAME qemu)
+    set(SERVO_APP_PORT_SOURCES hal/stm32f1/qemu_plant.c hal/stm32f1/qemu_flash.c)
+else()
+    set(SERVO_IMAGE_NAME ${BOARD})
+    set(SERVO_APP_PORT_SOURCES hal/stm32f1/motor.c hal/stm32f1/flash.c)
+endif()
 
 # Relink (and so re-run the checks) when a linker script or a check changes.
 set(SERVO_CHECKS hal/stm32f1/check_isr_ram.py hal/stm32f1/stack_report.py
@@ -67,7 +84,7 @@ function(servo_link_and_check name ldscript stack_dirs)
         COMMAND ${SERVO_PYTHON3} ${CMAKE_SOURCE_DIR}/hal/stm32f1/stack_report.py
                 $<TARGET_FILE:${name}.elf> ${dirs} ${CMAKE_BINARY_DIR}/${name}.stack
         COMMAND ${CMAKE_COMMAND} -DNM=arm-none-eabi-nm -DELF=$<TARGET_FILE:${name}.elf>
-                -DNAME=${name} -DROW=${BOARD} -DOUT=${CMAKE_BINARY_DIR}/${name}.size ${ARGN}
+                -DNAME=${name} -DROW=${SERVO_IMAGE_NAME} -DOUT=${CMAKE_BINARY_DIR}/${name}.size ${ARGN}
                 -P ${CMAKE_SOURCE_DIR}/cmake/check-budget.cmake
         BYPRODUCTS ${CMAKE_BINARY_DIR}/${name}.map ${CMAKE_BINARY_DIR}/${name}.size
                    ${CMAKE_BINARY_DIR}/${name}.stack
@@ -75,9 +92,8 @@ function(servo_link_and_check name ldscript stack_dirs)
 endfunction()
 
 # ---- The application: the core, the port, main() and the image info block ----
-set(image servo-${BOARD})
-add_executable(${image}.elf ${SERVO_PORT_SOURCES}
-    hal/stm32f1/motor.c
+set(image servo-${SERVO_IMAGE_NAME})
+add_executable(${image}.elf ${SERVO_PORT_SOURCES} ${SERVO_APP_PORT_SOURCES}
     hal/stm32f1/main.c
     hal/stm32f1/image_info.c
     hal/stm32f1/libc_small.c
@@ -106,8 +122,9 @@ add_custom_command(TARGET ${image}.elf POST_BUILD
 # Compiled here rather than taken from servo_core, so nothing of motion, dispatch or the
 # trajectory store can be linked in; servo.c is here for servo_rx_isr() alone (the link's
 # garbage collection drops servo_init/servo_poll and what they call).
-set(boot servo-boot-${BOARD})
+set(boot servo-boot-${SERVO_IMAGE_NAME})
 add_executable(${boot}.elf ${SERVO_PORT_SOURCES}
+    hal/stm32f1/flash.c
     hal/stm32f1/boot_main.c
     hal/stm32f1/libc_small.c
     src/frame_rx.c

@@ -6,7 +6,9 @@
  * (see hal/stm32f1/ for the MCU, hal/host/ for the host simulation).
  *
  * Interrupt contract: the port's UART receive interrupt calls servo_rx_isr() (servo.h)
- * once per received byte. Nothing else in the core runs in interrupt context.
+ * once per received byte, or servo_rx_isr_at() with the byte's arrival time on the
+ * hal_clock_us() scale if it has it cheaper. Nothing else in the core runs in interrupt
+ * context.
  */
 #ifndef HAL_H
 #define HAL_H

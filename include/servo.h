@@ -53,6 +53,13 @@ void servo_init(struct servo *s, const struct board *b, struct hal *hal);
 /* Interrupt context: the UART received one byte. */
 void servo_rx_isr(struct servo *s, uint8_t byte);
 
+/* The same, for a port whose interrupt has the byte's arrival time at hand (cheaper than
+ * hal_clock_us() in the handler's context: the STM32 port's USART1 interrupt). */
+static inline void servo_rx_isr_at(struct servo *s, uint8_t byte, uint32_t now_us)
+{
+    frame_rx_byte(&s->rx, byte, now_us);
+}
+
 /* Main loop, both modes (the application, and update mode when servo_power_on() or the
  * bootloader started that): do whatever is due (a control tick, send an answer,
  * dispatch the next frame, commit a changed setting). Never blocks. */

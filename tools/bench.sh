@@ -41,6 +41,13 @@ if [ -f build/stm32/servo-arm.elf ]; then
     done
 fi
 echo
+if [ -f build/qemu/servo-qemu.elf ]; then
+    echo "== on target: the arm image under QEMU (build/qemu; hal/stm32f1/qemu_cost.py),"
+    echo "   Cortex-M3 instructions counted by single-stepping (~1 min)"
+    timeout 300 /usr/bin/python3 hal/stm32f1/qemu_cost.py build/qemu/servo-qemu.elf ||
+        echo "!! on-target figures: over budget (100 per byte, 3,600 per tick) or QEMU failed"
+    echo
+fi
 if ls build/stm32-*/servo-*.stack >/dev/null 2>&1; then
     echo "== worst-case stack per entry point, STM32 images (make firmware; budget 75% of reserved)"
     for f in build/stm32-*/servo-*.stack; do

@@ -3,7 +3,11 @@
 servo bus (build/host/servo-sim), driven through the Python SDK in real time: scan, home
 the arm, a trapezoidal move, a trajectory, speed mode on the base and a heartbeat stop.
 Prints what happens in plain words and writes a PNG plot of position and speed against
-time (build/demo.png, or the path given)."""
+time (build/demo.png, or the path given).
+
+--qemu (make demo QEMU=1): the same session against the arm firmware itself, running on
+qemu-system-arm (tools/qemu_servo.py, the `qemu` build): one arm, ID 1, so the base's
+speed mode and the foot's stop are done by the arm (speed mode: both limits 0)."""
 import os
 import re
 import subprocess
@@ -16,7 +20,9 @@ sys.path.insert(0, os.path.join(REPO, "tools", "python"))
 from servobus import Bus  # noqa: E402
 
 SIM = os.environ.get("SERVO_SIM") or os.path.join(REPO, "build", "host", "servo-sim")
-ARM, FOOT, BASE = 1, 2, 3
+QEMU = "--qemu" in sys.argv[1:]
+ARM, FOOT, BASE = (1, 1, 1) if QEMU else (1, 2, 3)
+BASE_NAME, FOOT_NAME = ("arm", "arm") if QEMU else ("base", "foot")
 
 
 PROBLEMS = []
@@ -33,7 +39,21 @@ def check(ok, what):
         say("   !! %s" % what)
 
 
+def start_qemu():
+    sys.path.insert(0, os.path.join(REPO, "tools"))
+    from qemu_servo import QemuServo
+    try:
+        q = QemuServo()
+    except FileNotFoundError as e:
+        sys.exit("demo: %s" % e)
+    if not q.wait_ready():
+        sys.exit("demo: the QEMU image did not boot: %s" % q.stop())
+    return q, q.port
+
+
 def start_sim():
+    if QEMU:
+        return start_qemu()
     proc = subprocess.Popen([SIM, "--listen", "127.0.0.1:0", "--servo", "%d:arm" % ARM,
                              "--servo", "%d:foot" % FOOT, "--servo", "%d:base" % BASE],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -79,7 +99,7 @@ def plot(rec, path):
     except ImportError:
         say("(no plot: python3-matplotlib is not installed)")
         return
-    names = {ARM: "arm (deg)", FOOT: "foot (deg)", BASE: "base (deg)"}
+    names = {FOOT: "foot (deg)", BASE: "base (deg)", ARM: "arm (deg)"}
     fig, (ax1, ax2) = plt.subplots(2, 1, sharex=True, figsize=(9, 6))
     for i, rows in sorted(rec.samples.items()):
         ax1.plot([r[0] for r in rows], [r[1] for r in rows], ".-", ms=2, label=names[i])
@@ -97,19 +117,25 @@ def plot(rec, path):
 
 
 def main():
-    out_png = sys.argv[1] if len(sys.argv) > 1 else os.path.join(REPO, "build", "demo.png")
-    if not os.access(SIM, os.X_OK):
+    args = [a for a in sys.argv[1:] if a != "--qemu"]
+    out_png = args[0] if args else os.path.join(REPO, "build", "demo.png")
+    if not QEMU and not os.access(SIM, os.X_OK):
         sys.exit("demo: %s is missing: run `make demo` (it builds it)" % SIM)
     proc, port = start_sim()
     try:
         with Bus("tcp://127.0.0.1:%d" % port, timeout=0.5) as bus:
             rec = Recorder(bus)
-            say("servo-sim is running an arm (ID 1), a foot (ID 2) and a base (ID 3) on a "
-                "virtual RS485 bus at tcp://127.0.0.1:%d." % port)
+            if QEMU:
+                say("The arm firmware (ID 1) runs on qemu-system-arm -M stm32vldiscovery, "
+                    "its USART1 at tcp://127.0.0.1:%d." % port)
+            else:
+                say("servo-sim is running an arm (ID 1), a foot (ID 2) and a base (ID 3) "
+                    "on a virtual RS485 bus at tcp://127.0.0.1:%d." % port)
 
             say("\n1. Scan: one broadcast PING, every servo answers in its own time slot.")
             found = bus.scan()
-            check([f.id for f in found] == [ARM, FOOT, BASE], "the scan did not find IDs 1-3")
+            want = sorted({ARM, FOOT, BASE})
+            check([f.id for f in found] == want, "the scan did not find IDs %s" % want)
             for f in found:
                 v = bus.variant(f.id)
                 say("   found ID %d: %s, model 0x%04X, %s" % (
@@ -150,33 +176,48 @@ def main():
             check(bus.position(ARM) == 120, "the trajectory did not end at 120")
             say("   done at %d degrees" % bus.position(ARM))
 
-            say("\n5. Speed mode on the base: 120 deg/s forward.")
+            if QEMU:
+                say("\n5. Speed mode (the base's, here on the arm: both limits 0): 120 deg/s "
+                    "forward.")
+                bus.write(ARM, {"cw_angle_limit": 0, "ccw_angle_limit": 0})
+            else:
+                say("\n5. Speed mode on the base: 120 deg/s forward.")
             bus.set_speed(BASE, 120)
             rec.wait(1.5, [ARM, BASE])
             speed = bus.read(BASE, "present_speed")
-            check(abs(speed - 120) <= 10, "the base is not turning at 120 deg/s")
-            say("   base turning at %d deg/s" % speed)
+            check(abs(speed - 120) <= 10, "the %s is not turning at 120 deg/s" % BASE_NAME)
+            say("   %s turning at %d deg/s" % (BASE_NAME, speed))
 
             say("\n6. Heartbeat: the host goes quiet for 1.5 s (a crashed controller) ...")
             time.sleep(1.5)
             speed = bus.read(BASE, "present_speed")
-            check(abs(speed) <= 5, "the heartbeat did not stop the base")
-            say("   ... the base stopped by itself after 500 ms without a packet: speed now "
-                "%d deg/s" % speed)
+            check(abs(speed) <= 5, "the heartbeat did not stop the %s" % BASE_NAME)
+            say("   ... the %s stopped by itself after 500 ms without a packet: speed now "
+                "%d deg/s" % (BASE_NAME, speed))
             rec.wait(0.5, [ARM, BASE])
 
-            say("\n7. Rule 3: speed 0 stops whatever runs. Foot: a long move, then speed 0.")
-            bus.move(FOOT, 300, speed=60)
+            if QEMU:
+                say("\n7. Rule 3: speed 0 stops whatever runs. The arm (limits 0..420 "
+                    "again): a long move, then speed 0.")
+                bus.write(ARM, {"cw_angle_limit": 0, "ccw_angle_limit": 420})
+                bus.move(FOOT, 60, speed=60)
+            else:
+                say("\n7. Rule 3: speed 0 stops whatever runs. Foot: a long move, then "
+                    "speed 0.")
+                bus.move(FOOT, 300, speed=60)
             rec.wait(1.0, [FOOT])
             bus.stop(FOOT)
             rec.wait(1.0, [FOOT])
-            check(bus.read(FOOT, "moving") == 0, "speed 0 did not stop the foot")
-            say("   foot stopped near %d degrees (torque off, coasting to rest)" %
-                bus.position(FOOT))
+            check(bus.read(FOOT, "moving") == 0, "speed 0 did not stop the %s" % FOOT_NAME)
+            say("   %s stopped near %d degrees (torque off, coasting to rest)" % (
+                FOOT_NAME, bus.position(FOOT)))
             plot(rec, out_png)
     finally:
-        proc.terminate()
-        proc.wait(timeout=10)
+        if QEMU:
+            proc.stop()
+        else:
+            proc.terminate()
+            proc.wait(timeout=10)
     if PROBLEMS:
         sys.exit("demo: %d step(s) did not do what they should: %s" % (
             len(PROBLEMS), "; ".join(PROBLEMS)))

@@ -1,5 +1,6 @@
-/* gpio.c - pins: configuration, levels, the board outputs' safe state, the photo
- * switches and the RS485 terminator. */
+/* gpio.c - pins: configuration, levels, the board outputs' safe state (the photo
+ * switches' pull-ups too) and the RS485 terminator. Reading the switches is motor.c's,
+ * with the other sensors. */
 #include "hal_stm32f1.h"
 
 /* For GPIO_IN_PULL the output latch picks up (set it with gpio_write) or down. */
@@ -32,16 +33,6 @@ void gpio_init(void)
         gpio_mode(BOARD_PIN_PHOTO2, GPIO_IN_PULL);
     }
 #endif
-}
-
-uint8_t hal_photo_switches(struct hal *h)
-{
-    (void)h;
-    if (!BOARD_PHOTO)
-        return 0;
-    bool s1 = gpio_read(BOARD_PIN_PHOTO1) == BOARD_PHOTO_ACTIVE_HIGH;
-    bool s2 = gpio_read(BOARD_PIN_PHOTO2) == BOARD_PHOTO_ACTIVE_HIGH;
-    return (uint8_t)(s1 | (s2 << 1));
 }
 
 void hal_rs485_termination(struct hal *h, bool on)

@@ -1,6 +1,7 @@
 /* motor.c - the H-bridge (TIM3 PWM, gate driver enable), the position sensor (TIM2 in
- * quadrature encoder mode, or a potentiometer on the ADC) and the analog sensors (ADC1
- * scanning continuously into RAM by DMA, so a read never waits). Main loop only. */
+ * quadrature encoder mode, or a potentiometer on the ADC), the analog sensors (ADC1
+ * scanning continuously into RAM by DMA, so a read never waits) and the photo switches:
+ * everything the plant model (qemu_plant.c) stands in for under QEMU. Main loop only. */
 #include "hal_stm32f1.h"
 
 /* ADC1 channel n is pin PAn for n < 8. */
@@ -163,4 +164,14 @@ int16_t hal_temperature_dc(struct hal *h)
     int32_t mv = (int32_t)(h->adc[ADC_TEMP] * 3300u >> 12);
     int32_t dc = (mv - (int32_t)BOARD_TEMP_MV_AT_0C) * 1000 / (int32_t)BOARD_TEMP_UV_PER_DC;
     return (int16_t)dc;
+}
+
+uint8_t hal_photo_switches(struct hal *h)
+{
+    (void)h;
+    if (!BOARD_PHOTO)
+        return 0;
+    bool s1 = gpio_read(BOARD_PIN_PHOTO1) == BOARD_PHOTO_ACTIVE_HIGH;
+    bool s2 = gpio_read(BOARD_PIN_PHOTO2) == BOARD_PHOTO_ACTIVE_HIGH;
+    return (uint8_t)(s1 | (s2 << 1));
 }
