@@ -1,0 +1,19 @@
+/* client.h - servo-sim's TCP side: one listening socket, one client at a time (a second
+ * one is accepted and closed at once). What the client sends is what the host puts on
+ * the wire; what it receives is what the servos put on it (bus.h). Single-threaded,
+ * non-blocking, one ppoll() loop. */
+#ifndef CLIENT_H
+#define CLIENT_H
+
+#include <netinet/in.h>
+#include <signal.h>
+
+/* Listen on sa (port 0: the kernel picks one, written back into sa). Exits with status
+ * 2 if that is not possible. Returns the socket. */
+int client_listen(struct sockaddr_in *sa, const char *text);
+
+/* Serve clients on the listening socket lfd until *stop is set (by a signal, which is
+ * only let through during the poll: poll_mask). */
+void client_serve(int lfd, const sigset_t *poll_mask, volatile sig_atomic_t *stop);
+
+#endif
