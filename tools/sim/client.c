@@ -12,12 +12,20 @@
 #include <unistd.h>
 
 #include "bus.h"
+#include "rfc2217.h"
 #include "sim.h"
 
 #define OUT_MAX (1u << 20) /* bytes queued for a client that does not read */
+#define IN_MAX 4096u
+
+enum kind { KIND_UNKNOWN, KIND_RAW, KIND_RFC2217 };
 
 static uint8_t out_buf[OUT_MAX];
 static size_t out_len;
+static enum kind kind;
+static uint8_t first[2]; /* a client's first bytes while its kind is not known */
+static size_t first_len;
+static struct rfc2217 telnet;
 
 int client_listen(struct sockaddr_in *sa, const char *text)
 {
@@ -31,18 +39,73 @@ int client_listen(struct sockaddr_in *sa, const char *text)
             die(2, "cannot listen on %s: port in use (another servo-sim?)", text);
         die(2, "cannot listen on %s: %s", text, strerror(errno));
     }
-    if (listen(fd, 1) != 0)
+    if (listen(fd, SOMAXCONN) != 0)
         die(2, "cannot listen on %s: %s", text, strerror(errno));
     socklen_t len = sizeof *sa;
     getsockname(fd, (struct sockaddr *)sa, &len); /* the port chosen for port 0 */
     return fd;
 }
 
-static void client_close(int *client)
+static void client_close(int *client, int64_t now)
 {
     close(*client);
     *client = -1;
     out_len = 0;
+    bus_host_disconnect(now);
+}
+
+/* Queue bytes for the client (a client that does not read is closed in the loop). */
+static void out_put(const uint8_t *p, size_t n)
+{
+    if (n > OUT_MAX - out_len)
+        n = OUT_MAX - out_len;
+    memcpy(out_buf + out_len, p, n);
+    out_len += n;
+}
+
+/* Bytes of a Telnet client: data to the bus, negotiation answered, settings applied. */
+static void telnet_input(const uint8_t *in, size_t n, int64_t now)
+{
+    static uint8_t data[IN_MAX], reply[RFC2217_REPLY_MAX(IN_MAX)];
+    size_t reply_len = 0;
+    size_t nd = rfc2217_input(&telnet, in, n, data, reply, &reply_len);
+    out_put(reply, reply_len);
+    if (telnet.purge & RFC2217_PURGE_TX)
+        bus_host_purge(now);
+    if (telnet.purge & RFC2217_PURGE_RX)
+        (void)bus_output(0, 0);
+    telnet.purge = 0;
+    if (telnet.baud_changed) {
+        bus_host_uart(telnet.baud);
+        telnet.baud_changed = false;
+    }
+    if (nd)
+        bus_host_send(data, nd, now);
+}
+
+/* A client's bytes, in chunks of at most IN_MAX: its kind first, once. */
+static void host_input(const uint8_t *in, size_t n, int64_t now)
+{
+    if (kind == KIND_UNKNOWN) {
+        while (first_len < sizeof first && n) {
+            first[first_len++] = *in++;
+            n--;
+        }
+        int telnet_client = rfc2217_detect(first, first_len);
+        if (telnet_client < 0)
+            return; /* a lone IAC: wait for the next byte */
+        kind = telnet_client ? KIND_RFC2217 : KIND_RAW;
+        if (kind == KIND_RFC2217) {
+            uint8_t reply[64];
+            out_put(reply, rfc2217_start(&telnet, reply));
+            bus_host_uart(telnet.baud);
+        }
+        host_input(first, first_len, now);
+    }
+    if (kind == KIND_RAW)
+        bus_host_raw(in, n, now);
+    else if (n)
+        telnet_input(in, n, now);
 }
 
 /* Send what the client will take now. Returns false if the connection is gone. */
@@ -58,24 +121,24 @@ static bool flush_out(int fd)
     return true;
 }
 
-/* Feed what the client sent to the servos, as it arrives; all of it if drain (else one
+/* Feed what the client sent to the bus, as it arrives; all of it if drain (else one
  * read); close the client at its end of stream. */
-static void client_input(int *client, uint32_t now, bool drain)
+static void client_input(int *client, int64_t now, bool drain)
 {
     do {
-        uint8_t in[4096];
+        uint8_t in[IN_MAX];
         ssize_t n = recv(*client, in, sizeof in, MSG_DONTWAIT);
         if (n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)) {
-            client_close(client);
+            client_close(client, now);
             return;
         }
         if (n < 0)
             return;
-        bus_host_bytes(in, (size_t)n, now);
+        host_input(in, (size_t)n, now);
     } while (drain);
 }
 
-static void client_accept(int lfd, int *client)
+static void client_accept(int lfd, int *client, int64_t now)
 {
     int fd = accept4(lfd, 0, 0, SOCK_NONBLOCK | SOCK_CLOEXEC);
     if (fd >= 0 && *client >= 0) {
@@ -84,14 +147,28 @@ static void client_accept(int lfd, int *client)
         int one = 1;
         setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
         *client = fd;
+        kind = KIND_UNKNOWN;
+        first_len = 0;
+        bus_host_connect(now);
     }
+}
+
+/* What the host heard, to the client as its kind needs it. */
+static void client_output(bool connected)
+{
+    static uint8_t heard[65536], escaped[2u * sizeof heard];
+    size_t n = bus_output(heard, connected && kind != KIND_UNKNOWN ? sizeof heard : 0);
+    if (kind == KIND_RFC2217)
+        out_put(escaped, rfc2217_escape(heard, n, escaped));
+    else
+        out_put(heard, n);
 }
 
 void client_serve(int lfd, const sigset_t *poll_mask, volatile sig_atomic_t *stop)
 {
     int client = -1;
     while (!*stop) {
-        uint32_t now = bus_now();
+        int64_t now = bus_now();
         uint32_t wake = bus_next_wake(now);
         struct timespec ts = {0, (long)wake * 1000};
         struct pollfd pfd[2] = {{lfd, POLLIN, 0}, {client, POLLIN, 0}};
@@ -111,14 +188,14 @@ void client_serve(int lfd, const sigset_t *poll_mask, volatile sig_atomic_t *sto
                             incoming))
             client_input(&client, now, incoming);
         if (incoming)
-            client_accept(lfd, &client);
-        bus_step(now);
-        out_len += bus_output(now, out_buf + out_len, client >= 0 ? OUT_MAX - out_len : 0);
+            client_accept(lfd, &client, now);
+        bus_advance(now);
+        client_output(client >= 0);
         if (client >= 0 && !flush_out(client))
-            client_close(&client);
+            client_close(&client, now);
         if (client >= 0 && out_len == OUT_MAX) {
             fprintf(stderr, "servo-sim: client does not read its answers; closing it\n");
-            client_close(&client);
+            client_close(&client, now);
         }
     }
     if (client >= 0)

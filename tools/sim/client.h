@@ -1,7 +1,13 @@
-/* client.h - servo-sim's TCP side: one listening socket, one client at a time (a second
- * one is accepted and closed at once). What the client sends is what the host puts on
- * the wire; what it receives is what the servos put on it (bus.h). Single-threaded,
- * non-blocking, one ppoll() loop. */
+/* client.h - servo-sim's TCP side: one listening socket (backlog SOMAXCONN, so a script
+ * that reconnects at once is never refused), one client at a time (a second one is
+ * accepted and closed at once). What the client sends is what the host puts on the bus;
+ * what it receives is what the host hears (bus.h). Single-threaded, non-blocking, one
+ * ppoll() loop.
+ *
+ * The kind of client is told by its first bytes: IAC (0xFF) then WILL, WONT, DO, DONT or
+ * SB is a Telnet client speaking RFC 2217 (rfc2217.h), a UART at the baud it sets; any
+ * other first byte is a raw client (no baud rate), as before RFC 2217 was served. Until
+ * it is known, what the servos send is not passed on. */
 #ifndef CLIENT_H
 #define CLIENT_H
 

@@ -6,8 +6,9 @@
  *   main.c    the command line's order of work, signals, the exit status
  *   args.c    the command line (a contract: README, tools/python/README.md)
  *   state.c   --state-dir: each servo's flash in a file, following every flash operation
- *   bus.c     the servos in real time: the clock, their main loops, their output
- *   client.c  the TCP side: the listening socket, the one client, the poll loop */
+ *   bus.c     the servos and the host on one wire (hal/host/wire.h) in real time
+ *   client.c  the TCP side: the listening socket, the one client and its kind, the loop
+ *   rfc2217.c a Telnet COM-PORT-CONTROL client's protocol (rfc2217:// clients) */
 #ifndef SIM_H
 #define SIM_H
 
