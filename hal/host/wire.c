@@ -10,8 +10,10 @@ void wire_init(struct wire *w, unsigned talkers)
 {
     w->talkers = talkers;
     w->t = calloc(talkers ? talkers : 1u, sizeof *w->t);
+    w->active = calloc(talkers ? talkers : 1u, sizeof *w->active);
+    w->nactive = 0;
     w->changes = 0;
-    if (!w->t)
+    if (!w->t || !w->active)
         abort();
 }
 
@@ -20,8 +22,11 @@ void wire_free(struct wire *w)
     for (unsigned i = 0; i < w->talkers; i++)
         free(w->t[i].q);
     free(w->t);
+    free(w->active);
     w->t = 0;
+    w->active = 0;
     w->talkers = 0;
+    w->nactive = 0;
 }
 
 int64_t wire_bit_ns(int64_t start_ns, uint32_t baud, unsigned k)
@@ -39,9 +44,26 @@ static int64_t byte_end(const struct wire_byte *b)
     return wire_bit_ns(b->start_ns, b->baud, 10);
 }
 
+/* Keep the list of talkers with bytes on the line: only they can pull it low. */
+static void update_active(struct wire *w, unsigned talker)
+{
+    bool has = w->t[talker].len > 0;
+    for (unsigned k = 0; k < w->nactive; k++) {
+        if (w->active[k] == talker) {
+            if (!has)
+                w->active[k] = w->active[--w->nactive];
+            return;
+        }
+    }
+    if (has)
+        w->active[w->nactive++] = talker;
+}
+
 void wire_put(struct wire *w, unsigned talker, int64_t start_ns, uint32_t baud, uint8_t byte)
 {
     struct wire_talker *tk = &w->t[talker];
+    if (tk->len == 0)
+        tk->head = 0;
     if (tk->len == tk->cap) {
         uint32_t cap = tk->cap ? tk->cap * 2u : 64u;
         struct wire_byte *q = malloc(cap * sizeof *q);
@@ -59,6 +81,8 @@ void wire_put(struct wire *w, unsigned talker, int64_t start_ns, uint32_t baud, 
     b->baud = baud;
     b->byte = byte;
     w->changes++;
+    if (tk->len == 1u)
+        update_active(w, talker);
 }
 
 int64_t wire_talker_end(const struct wire *w, unsigned talker)
@@ -74,16 +98,21 @@ void wire_drop_after(struct wire *w, unsigned talker, int64_t t)
         tk->len--;
         w->changes++;
     }
+    if (tk->len == 0)
+        update_active(w, talker);
 }
 
 void wire_prune(struct wire *w, int64_t t)
 {
-    for (unsigned i = 0; i < w->talkers; i++) {
+    for (unsigned k = w->nactive; k-- > 0;) {
+        unsigned i = w->active[k];
         struct wire_talker *tk = &w->t[i];
         while (tk->len && byte_end(at(tk, 0)) < t) {
             tk->head = (tk->head + 1u) & (tk->cap - 1u);
             tk->len--;
         }
+        if (tk->len == 0)
+            update_active(w, i);
     }
 }
 
@@ -139,9 +168,9 @@ int64_t wire_talker_free_at(const struct wire *w, unsigned talker, int64_t t)
 
 int wire_level(const struct wire *w, int64_t t)
 {
-    for (unsigned i = 0; i < w->talkers; i++) {
+    for (unsigned k = 0; k < w->nactive; k++) {
         int64_t bit;
-        const struct wire_byte *b = byte_at(&w->t[i], t, &bit);
+        const struct wire_byte *b = byte_at(&w->t[w->active[k]], t, &bit);
         if (b && !bit_of(b, bit))
             return 0;
     }
@@ -154,8 +183,8 @@ int wire_level(const struct wire *w, int64_t t)
 static int64_t next_boundary(const struct wire *w, int64_t t)
 {
     int64_t next = NONE;
-    for (unsigned i = 0; i < w->talkers; i++) {
-        const struct wire_talker *tk = &w->t[i];
+    for (unsigned a = 0; a < w->nactive; a++) {
+        const struct wire_talker *tk = &w->t[w->active[a]];
         int64_t bit, k = last_at_or_before(tk, t) + 1;
         const struct wire_byte *cur = byte_at(tk, t, &bit);
         if (cur) {
@@ -186,9 +215,9 @@ static int64_t find_edge(const struct wire *w, int64_t t)
 static uint32_t baud_at_edge(const struct wire *w, int64_t edge)
 {
     uint32_t low = 0;
-    for (unsigned i = 0; i < w->talkers; i++) {
+    for (unsigned k = 0; k < w->nactive; k++) {
         int64_t bit;
-        const struct wire_byte *b = byte_at(&w->t[i], edge, &bit);
+        const struct wire_byte *b = byte_at(&w->t[w->active[k]], edge, &bit);
         if (b && b->start_ns == edge)
             return b->baud;
         if (b && !bit_of(b, bit) && !low)

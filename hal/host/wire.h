@@ -40,6 +40,8 @@ struct wire_talker {
 struct wire {
     unsigned talkers;
     struct wire_talker *t;
+    unsigned *active; /* the talkers with bytes on the line, nactive of them */
+    unsigned nactive;
     uint32_t changes; /* counts puts and drops: a receiver's decode is stale when it moved */
 };
 

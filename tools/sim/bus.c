@@ -37,6 +37,7 @@ struct rx_next {
 };
 static struct rx_next rx_cache[SIM_SERVOS_MAX + 1u];
 static bool run_now[SIM_SERVOS_MAX];
+static int64_t ran_us[SIM_SERVOS_MAX]; /* when each servo's main loop last ran */
 
 int64_t bus_now(void)
 {
@@ -126,6 +127,7 @@ static void run_at(unsigned i, int64_t t)
     struct node *n = &servos[i]->node;
     if (t < unwrap(n->hal.now_us))
         t = unwrap(n->hal.now_us); /* never back in time (a servo caught up late) */
+    ran_us[i] = t;
     for (int pass = 0; pass < 8; pass++) {
         const struct link *l = &n->servo.link;
         if (l->state == LINK_WAITING && t >= unwrap(l->due_us) && t < answer_start(i))
@@ -176,12 +178,44 @@ void bus_start(void)
     host_talker = servo_count;
     wire_init(&wire, servo_count + 1u);
     for (unsigned i = 0; i < servo_count; i++) {
+        ran_us[i] = frontier_us;
         servos[i]->node.hal.now_us = (uint32_t)frontier_us; /* the real clock starts */
         servos[i]->rx.hunt_ns = frontier_us * 1000;
     }
 }
 
 /* ---- Receivers ------------------------------------------------------------------- */
+
+/* The last few decodes: receivers at one baud that took the same byte hunt from the
+ * same point, and decode the same next byte (a bus of servos at one baud). */
+#define MEMO 4u
+static struct memo {
+    bool used, have;
+    uint32_t changes, baud;
+    int64_t hunt_ns;
+    struct wire_rx_byte b;
+} memo[MEMO];
+static unsigned memo_next;
+
+static bool decode(const struct wire_rx *rx, struct wire_rx_byte *out)
+{
+    for (unsigned k = 0; k < MEMO; k++) {
+        const struct memo *m = &memo[k];
+        if (m->used && m->changes == wire.changes && m->baud == rx->baud &&
+            m->hunt_ns == rx->hunt_ns) {
+            *out = m->b;
+            return m->have;
+        }
+    }
+    struct memo *m = &memo[memo_next++ % MEMO];
+    m->have = wire_rx_next(&wire, rx, &m->b);
+    m->used = true;
+    m->changes = wire.changes;
+    m->baud = rx->baud;
+    m->hunt_ns = rx->hunt_ns;
+    *out = m->b;
+    return m->have;
+}
 
 /* Receiver r's next byte on the line as it is now known, or 0. */
 static const struct wire_rx_byte *rx_peek(unsigned r)
@@ -194,7 +228,7 @@ static const struct wire_rx_byte *rx_peek(unsigned r)
     struct rx_next *c = &rx_cache[r];
     if (!c->valid || c->changes != wire.changes || c->baud != baud) {
         rx->baud = baud;
-        c->have = wire_rx_next(&wire, rx, &c->b);
+        c->have = decode(rx, &c->b);
         c->valid = true;
         c->changes = wire.changes;
         c->baud = baud;
@@ -229,17 +263,30 @@ static void rx_deliver(unsigned r, int64_t t)
     if (t > unwrap(n->hal.now_us))
         n->hal.now_us = (uint32_t)t;
     servo_rx_isr(&n->servo, byte);
-    run_now[r] = true;
+    /* A frame complete: the main loop takes it now (its answer is timed from it). Else
+     * the next tick is soon enough, as a byte inside a frame asks nothing of it. */
+    run_now[r] = frame_rx_peek(&n->servo.rx) || frame_rx_peek_block(&n->servo.rx);
 }
 
 /* ---- Time ------------------------------------------------------------------------ */
 
-/* The earliest event: a main-loop tick, an answer's start, a receiver's byte. */
+/* When servo i's pending answer is to start, unless its main loop already ran at or
+ * after that time: then something holds it (a frame arriving: listen before talk), and
+ * its next tick or received byte runs it again. */
+static int64_t answer_event(unsigned i)
+{
+    int64_t a = answer_start(i);
+    return a > ran_us[i] ? a : NONE;
+}
+
+/* The earliest event: a main-loop tick, an answer's start, a receiver's byte. Each is
+ * consumed when it runs (a tick moves on, a byte is taken, an answer starts or waits for
+ * the next tick), so time always moves on. */
 static int64_t next_event(void)
 {
     int64_t t = next_tick_us;
     for (unsigned i = 0; i < servo_count; i++) {
-        int64_t a = answer_start(i);
+        int64_t a = answer_event(i);
         t = a < t ? a : t;
     }
     for (unsigned r = 0; r <= servo_count; r++) {
@@ -276,7 +323,7 @@ void bus_advance(int64_t now)
                 rx_deliver(r, t);
         bool tick = t >= next_tick_us;
         for (unsigned i = 0; i < servo_count; i++) {
-            if (tick || run_now[i] || answer_start(i) <= t)
+            if (tick || run_now[i] || answer_event(i) <= t)
                 run_at(i, t);
             run_now[i] = false;
         }

@@ -63,24 +63,29 @@ static void out_put(const uint8_t *p, size_t n)
     out_len += n;
 }
 
-/* Bytes of a Telnet client: data to the bus, negotiation answered, settings applied. */
+/* Bytes of a Telnet client: data to the bus, negotiation answered, settings applied in
+ * stream order (data sent before a baud change goes out at the old baud). */
 static void telnet_input(const uint8_t *in, size_t n, int64_t now)
 {
     static uint8_t data[IN_MAX], reply[RFC2217_REPLY_MAX(IN_MAX)];
-    size_t reply_len = 0;
-    size_t nd = rfc2217_input(&telnet, in, n, data, reply, &reply_len);
-    out_put(reply, reply_len);
-    if (telnet.purge & RFC2217_PURGE_TX)
-        bus_host_purge(now);
-    if (telnet.purge & RFC2217_PURGE_RX)
-        (void)bus_output(0, 0);
-    telnet.purge = 0;
-    if (telnet.baud_changed) {
-        bus_host_uart(telnet.baud);
-        telnet.baud_changed = false;
+    while (n) {
+        size_t nd, reply_len = 0;
+        size_t used = rfc2217_input(&telnet, in, n, data, &nd, reply, &reply_len);
+        in += used;
+        n -= used;
+        out_put(reply, reply_len);
+        if (nd)
+            bus_host_send(data, nd, now);
+        if (telnet.purge & RFC2217_PURGE_TX)
+            bus_host_purge(now);
+        if (telnet.purge & RFC2217_PURGE_RX)
+            (void)bus_output(0, 0);
+        telnet.purge = 0;
+        if (telnet.baud_changed) {
+            bus_host_uart(telnet.baud);
+            telnet.baud_changed = false;
+        }
     }
-    if (nd)
-        bus_host_send(data, nd, now);
 }
 
 /* A client's bytes, in chunks of at most IN_MAX: its kind first, once. */

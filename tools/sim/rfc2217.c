@@ -207,10 +207,10 @@ static void com_port(struct rfc2217 *t, uint8_t *reply, size_t *len)
 }
 
 size_t rfc2217_input(struct rfc2217 *t, const uint8_t *in, size_t n, uint8_t *data,
-                     uint8_t *reply, size_t *reply_len)
+                     size_t *ndata, uint8_t *reply, size_t *reply_len)
 {
-    size_t nd = 0;
-    for (size_t i = 0; i < n; i++) {
+    size_t nd = 0, i;
+    for (i = 0; i < n && !t->baud_changed && !t->purge; i++) {
         uint8_t b = in[i];
         switch (t->state) {
         case S_DATA:
@@ -258,7 +258,8 @@ size_t rfc2217_input(struct rfc2217 *t, const uint8_t *in, size_t n, uint8_t *da
             break;
         }
     }
-    return nd;
+    *ndata = nd;
+    return i;
 }
 
 size_t rfc2217_escape(const uint8_t *in, size_t n, uint8_t *out)

@@ -47,10 +47,12 @@ int rfc2217_detect(const uint8_t *in, size_t n);
  * returns its length. */
 size_t rfc2217_start(struct rfc2217 *t, uint8_t *reply);
 
-/* Feed n bytes from the client. Data bytes go to data (at most n); replies are appended
- * to reply at *reply_len (room: RFC2217_REPLY_MAX(n)). Returns the number of data bytes. */
+/* Feed up to n bytes from the client. Data bytes go to data (*ndata of them, at most n);
+ * replies are appended to reply at *reply_len (room: RFC2217_REPLY_MAX(n)). It stops
+ * right after a command that changes the port (baud_changed or purge set), so the data
+ * before it can be sent at the old settings: returns the bytes consumed. */
 size_t rfc2217_input(struct rfc2217 *t, const uint8_t *in, size_t n, uint8_t *data,
-                     uint8_t *reply, size_t *reply_len);
+                     size_t *ndata, uint8_t *reply, size_t *reply_len);
 
 /* Data for the client with IAC doubled, into out (room: 2 n). Returns its length. */
 size_t rfc2217_escape(const uint8_t *in, size_t n, uint8_t *out);

@@ -83,7 +83,8 @@ bool __wrap_hal_flash_program(struct hal *h, uint8_t p, uint16_t off, uint16_t v
  * with erased pages to the current layout. */
 static void extend(struct state_file *f, size_t bytes)
 {
-    if (pwrite(f->fd, &f->hal->flash.mem[0][0] + bytes, STATE_BYTES - bytes, (off_t)bytes) !=
+    unsigned page = (unsigned)(bytes / HAL_FLASH_PAGE_BYTES);
+    if (pwrite(f->fd, f->hal->flash.mem[page], STATE_BYTES - bytes, (off_t)bytes) !=
         (ssize_t)(STATE_BYTES - bytes))
         die(2, "cannot extend state file %s: %s", f->path, strerror(errno));
     fprintf(stderr, "servo-sim: %s: a file of %zu KiB from an older servo-sim, extended "

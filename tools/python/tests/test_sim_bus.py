@@ -123,6 +123,28 @@ def test_baud_change_then_the_host_follows(sim_factory):
     assert rc == 0, (out, err)
 
 
+def test_baud_change_right_after_a_broadcast_write(sim_factory):
+    """The WRITE's bytes are still on the line at 9600 when the client asks for the new
+    baud: they go out at the baud they were sent at, and the servos follow."""
+    sim = sim_factory("1:arm", "2:arm")
+    with Bus(rfc2217(sim)) as bus:
+        bus.write(254, {"baud_rate": 10, "return_delay": 0})  # broadcast: no answer
+        bus.set_baud(1792000)
+        assert [f.id for f in bus.scan()] == [1, 2]
+
+
+def test_an_answer_held_by_a_frame_arriving(sim_factory):
+    """Listen before talk: an answer due while a frame arrives waits for the receiver to
+    fall idle (here the §1 gap abandons the half frame). The simulator runs on meanwhile
+    (it once spun on the held answer for ever)."""
+    sim = sim_factory("1:arm")
+    raw = Raw(sim)
+    got = raw.transact(packet(1, PING) + packet(1, READ, 36, 2)[:4], wait=0.3)
+    assert got == status(1, 0x01, 0x00), got.hex(" ")
+    assert raw.transact(packet(1, PING)) == status(1, 0x01, 0x00)
+    raw.close()
+
+
 def test_raw_tcp_still_hears_every_baud(sim_factory):
     sim = sim_factory("1:arm", "3:base")
     with Bus(sim.url) as bus:  # tcp://: the host has no baud
@@ -241,3 +263,57 @@ def test_half_a_frame_over_rfc2217_too(sim_factory):
     port.close()
     with Bus(rfc2217(sim)) as bus:
         assert bus.ping(1) == 0
+
+
+def test_rfc2217_negotiation_by_hand(sim_factory):
+    """The Telnet side without pyserial: the server asks for BINARY both ways, agrees to
+    COM-PORT-OPTION, refuses ECHO, answers a baud query with 9600, a SET-BAUDRATE with
+    the new baud, and a data size of 7 with the 8 the bus has."""
+    IAC, SB, SE, WILL, WONT, DO = 0xFF, 0xFA, 0xF0, 0xFB, 0xFC, 0xFD
+    sim = sim_factory("1:arm")
+    s = socket.create_connection(("127.0.0.1", sim.port), timeout=2)
+
+    def exchange(data, want):
+        s.sendall(bytes(data))
+        got, end = b"", time.monotonic() + 1
+        while not all(bytes(w) in got for w in want) and time.monotonic() < end:
+            s.settimeout(max(0.01, end - time.monotonic()))
+            try:
+                got += s.recv(4096)
+            except socket.timeout:
+                break
+        for w in want:
+            assert bytes(w) in got, (bytes(w).hex(" "), got.hex(" "))
+        return got
+
+    exchange([IAC, WILL, 44, IAC, DO, 1],
+             [[IAC, DO, 0], [IAC, WILL, 0], [IAC, DO, 44], [IAC, WONT, 1]])
+    exchange([IAC, SB, 44, 1, 0, 0, 0, 0, IAC, SE], [[IAC, SB, 44, 101, 0, 0, 0x25, 0x80, IAC, SE]])
+    exchange([IAC, SB, 44, 2, 7, IAC, SE], [[IAC, SB, 44, 102, 8, IAC, SE]])
+    exchange([IAC, SB, 44, 1, 0, 1, 0xC2, 0, IAC, SE],  # 115200
+             [[IAC, SB, 44, 101, 0, 1, 0xC2, 0, IAC, SE]])
+    got = exchange(packet(1, PING), [])  # the arm listens at 9600: garbage, no answer
+    assert status(1, 0x01, 0x00) not in got
+    s.close()
+
+
+# ---- state files --------------------------------------------------------------------
+
+def test_state_file_from_before_the_image_slots_keeps_its_settings(sim_factory, tmp_path):
+    """A 4 KiB state file (the store only, as servo-sim wrote before the image slots) is
+    extended in place once, with erased pages: the settings stay, the application slot
+    gets the factory image, and the file is an ordinary one from then on."""
+    sim = sim_factory("5:arm", state_dir=tmp_path)
+    with Bus(sim.url) as bus:
+        bus.write(5, "return_delay", 3)
+    sim.stop()
+    f = tmp_path / "servo-5-arm.flash"
+    full = f.stat().st_size
+    with open(f, "r+b") as fh:
+        fh.truncate(4096)
+    sim = sim_factory("5:arm", state_dir=tmp_path)
+    assert f.stat().st_size == full
+    with Bus(sim.url) as bus:
+        assert bus.read(5, "return_delay") == 3
+        assert bus.read(5, "firmware_version") == 1
+    assert sim.stop() == 0
