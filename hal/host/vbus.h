@@ -2,7 +2,8 @@
  * servos, each with its own host HAL. Every byte on the wire has a start and an end time
  * and a baud rate; a device hears a byte only at its own baud; bytes of two talkers that
  * overlap in time are counted as a collision. Used by the replay tests, the demo and the
- * benchmarks (servo-sim runs the same servos in real time). */
+ * benchmarks. Its servos are node.h's, as servo-sim's are; servo-sim runs them in real
+ * time on a line modelled bit by bit (wire.h), where overlapping bytes garble. */
 #ifndef VBUS_H
 #define VBUS_H
 

@@ -102,7 +102,8 @@ static void host_input(const uint8_t *in, size_t n, int64_t now)
         kind = telnet_client ? KIND_RFC2217 : KIND_RAW;
         if (kind == KIND_RFC2217) {
             uint8_t reply[64];
-            out_put(reply, rfc2217_start(&telnet, reply));
+            size_t len = rfc2217_start(&telnet, reply);
+            out_put(reply, len);
             bus_host_uart(telnet.baud);
         }
         host_input(first, first_len, now);

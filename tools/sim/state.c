@@ -58,7 +58,7 @@ bool __real_hal_flash_program(struct hal *h, uint8_t p, uint16_t off, uint16_t v
 bool __wrap_hal_flash_erase(struct hal *h, uint8_t p);
 bool __wrap_hal_flash_program(struct hal *h, uint8_t p, uint16_t off, uint16_t value);
 
-static void sync_hal(struct hal *h)
+static void sync_hal(const struct hal *h)
 {
     for (unsigned i = 0; i < open_count; i++)
         if (open_files[i]->hal == h)
