@@ -26,10 +26,21 @@ add_library(image_host STATIC hal/host/image_host.c)
 target_link_libraries(image_host PUBLIC servo_core hal_host)
 target_compile_options(image_host PRIVATE ${SERVO_WARNINGS})
 
+# One servo on a host bus (power-on, restart, its ID, its output), for both buses.
+add_library(node STATIC hal/host/node.c)
+target_include_directories(node PUBLIC hal/host)
+target_link_libraries(node PUBLIC servo_core hal_host image_host)
+target_compile_options(node PRIVATE ${SERVO_WARNINGS})
+
+# The bus line at the bit level (servo-sim's wire; tests/test_wire.c).
+add_library(wire STATIC hal/host/wire.c)
+target_include_directories(wire PUBLIC hal/host)
+target_compile_options(wire PRIVATE ${SERVO_WARNINGS})
+
 # The virtual bus: several host-built servos and a host on one wire, in virtual time.
 add_library(vbus STATIC hal/host/vbus.c)
 target_include_directories(vbus PUBLIC hal/host)
-target_link_libraries(vbus PUBLIC servo_core hal_host image_host)
+target_link_libraries(vbus PUBLIC node)
 target_compile_options(vbus PRIVATE ${SERVO_WARNINGS})
 
 add_subdirectory(tools)

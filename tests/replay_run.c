@@ -69,7 +69,7 @@ static int parse_bytes(char **tok, int ntok, uint8_t *out, uint32_t *gap_before)
     return n;
 }
 
-static struct vbus_node *node_by_name(struct vbus *b, const char *tok)
+static struct node *node_by_name(struct vbus *b, const char *tok)
 {
     long id = number(tok, 10);
     for (uint8_t i = 0; i < b->nodes; i++)
@@ -159,7 +159,7 @@ static void do_reg(struct vbus *b, char **tok, int ntok)
 {
     if (ntok < 4 || strcmp(tok[2], "="))
         fail("reg ID ADDR = HEX...");
-    struct vbus_node *n = node_by_name(b, tok[0]);
+    struct node *n = node_by_name(b, tok[0]);
     long addr = number(tok[1], 10);
     static uint8_t want[LINE_MAX_BYTES];
     int cnt = parse_bytes(&tok[3], ntok - 3, want, 0);

@@ -1,4 +1,5 @@
 /* vbus.c - virtual bus: delivers each byte to every other device at its end time. */
+#include <stdint.h>
 #include <string.h>
 
 #include "vbus.h"
@@ -14,25 +15,21 @@ void vbus_init(struct vbus *b)
 uint8_t vbus_add(struct vbus *b, const struct board *bd, uint8_t id)
 {
     uint8_t i = b->nodes++;
-    struct vbus_node *n = &b->node[i];
-    hal_host_init(&n->hal);
-    hal_host_attach_board(&n->hal, bd);
+    struct node *n = &b->node[i];
+    bool configure = id && id != REGS_FACTORY_ID;
+    node_init(n, bd, configure ? b->now_us - NODE_SET_ID_US : b->now_us);
+    node_power_on(n);
+    if (configure)
+        (void)node_set_id(n, id);
     n->hal.now_us = b->now_us;
-    hal_host_program_factory(&n->hal, bd);
-    servo_power_on(&n->servo, bd, &n->hal);
-    if (id) {
-        regs_set(&n->servo.regs, REG_ID, id); /* stored by the servo's first pass */
-        link_latch(&n->servo);
-    }
     return i;
 }
 
 void vbus_power_cycle(struct vbus *b, uint8_t i)
 {
-    struct vbus_node *n = &b->node[i];
-    hal_host_reboot(&n->hal); /* the flash stays */
+    struct node *n = &b->node[i];
     n->hal.now_us = b->now_us;
-    servo_power_on(&n->servo, n->servo.board, &n->hal);
+    node_restart(n);
 }
 
 const struct vbus_byte *vbus_wire(const struct vbus *b, uint32_t i)
@@ -57,15 +54,18 @@ static void wire_put(struct vbus *b, int8_t src, uint8_t byte, uint32_t start, u
     }
 }
 
-/* Copy what the servos have started sending onto the wire. */
+/* Copy what the servos have started sending onto the wire (an answer is logged whole
+ * when it starts), merged in time order. */
 static void collect(struct vbus *b)
 {
-    for (uint8_t i = 0; i < b->nodes; i++) {
-        struct vbus_node *n = &b->node[i];
-        for (; n->log_seen < n->hal.log_len; n->log_seen++) {
-            const struct hal_tx_byte *t = hal_host_tx(&n->hal, n->log_seen);
-            wire_put(b, (int8_t)i, t->byte, t->start_us, t->end_us, t->baud);
-        }
+    struct node *nodes[VBUS_NODES_MAX];
+    for (uint8_t i = 0; i < b->nodes; i++)
+        nodes[i] = &b->node[i];
+    int i;
+    while ((i = node_tx_next(nodes, b->nodes, b->now_us + INT32_MAX)) >= 0) {
+        const struct hal_tx_byte *t = node_tx_peek(nodes[i]);
+        wire_put(b, (int8_t)i, t->byte, t->start_us, t->end_us, t->baud);
+        node_tx_take(nodes[i]);
     }
 }
 
@@ -77,7 +77,7 @@ static void deliver(struct vbus *b, uint32_t t)
         if ((int32_t)(w->end_us - t) > 0)
             break;
         for (uint8_t i = 0; i < b->nodes; i++) {
-            struct vbus_node *n = &b->node[i];
+            struct node *n = &b->node[i];
             if (w->src == (int8_t)i || n->hal.baud != w->baud)
                 continue; /* a UART does not hear itself, nor another baud rate */
             n->hal.now_us = w->end_us;
@@ -95,13 +95,8 @@ void vbus_run_until(struct vbus *b, uint32_t t_us)
             t = t_us;
         deliver(b, t);
         b->now_us = t;
-        for (uint8_t i = 0; i < b->nodes; i++) {
-            struct vbus_node *n = &b->node[i];
-            n->hal.now_us = t;
-            servo_step(&n->servo);
-            if (n->hal.restart_requested) /* hal_restart(): reset, the bootloader runs */
-                vbus_power_cycle(b, i);
-        }
+        for (uint8_t i = 0; i < b->nodes; i++)
+            node_step(&b->node[i], t); /* a hal_restart() restarts it there */
         collect(b);
     }
 }

@@ -2,7 +2,8 @@
  * servos, each with its own host HAL. Every byte on the wire has a start and an end time
  * and a baud rate; a device hears a byte only at its own baud; bytes of two talkers that
  * overlap in time are counted as a collision. Used by the replay tests, the demo and the
- * benchmarks (servo-sim runs the same servos in real time). */
+ * benchmarks. Its servos are node.h's, as servo-sim's are; servo-sim runs them in real
+ * time on a line modelled bit by bit (wire.h), where overlapping bytes garble. */
 #ifndef VBUS_H
 #define VBUS_H
 
@@ -10,6 +11,7 @@
 #include <stdint.h>
 
 #include "hal_host.h"
+#include "node.h"
 #include "servo.h"
 
 #define VBUS_NODES_MAX 8u
@@ -20,12 +22,6 @@ struct vbus_byte {
     uint32_t start_us, end_us, baud;
     uint8_t byte;
     int8_t src; /* VBUS_HOST or a node index */
-};
-
-struct vbus_node {
-    struct hal hal;
-    struct servo servo;
-    uint32_t log_seen; /* bytes of hal.log already put on the wire */
 };
 
 struct vbus {
@@ -40,7 +36,7 @@ struct vbus {
     int8_t wire_end_src;
     uint32_t collisions;
     uint8_t nodes;
-    struct vbus_node node[VBUS_NODES_MAX];
+    struct node node[VBUS_NODES_MAX]; /* node.h: log_seen counts what is on the wire */
     struct vbus_byte wire[VBUS_WIRE_MAX];
 };
 
@@ -48,12 +44,13 @@ struct vbus {
 void vbus_init(struct vbus *b);
 
 /* Power up a servo of board bd on the bus, its factory image in the application slot.
- * A non-zero id is stored in its table as if configured earlier (a fresh servo is ID 1).
- * Returns its node index. */
+ * A non-zero id other than the factory ID was configured earlier, the one way
+ * (node_set_id(): a WRITE of register 3 in the NODE_SET_ID_US before now, so the store
+ * holds it and a power cycle keeps it). Returns its node index. */
 uint8_t vbus_add(struct vbus *b, const struct board *bd, uint8_t id);
 
 /* Power cycle node i (also what its hal_restart() leads to): the flash stays, the
- * bootloader's decision runs (servo_power_on). */
+ * bootloader's decision runs (node_restart). */
 void vbus_power_cycle(struct vbus *b, uint8_t i);
 
 /* The host puts n bytes on the wire back to back, starting now, at host_baud; the bus

@@ -58,7 +58,7 @@ if [ ! -f build/analyzer/CMakeCache.txt ]; then
     cmake -S . -B build/analyzer -DCMAKE_BUILD_TYPE=Debug -DSERVO_SANITIZE=OFF \
         -DCMAKE_C_FLAGS=-fanalyzer >/dev/null || exit 1
 fi
-cmake --build build/analyzer -j "$jobs" --target servo_bus servo_motion hal_host vbus \
+cmake --build build/analyzer -j "$jobs" --target servo_bus servo_motion hal_host vbus wire \
     -- --no-print-directory >"$out/analyzer.out" 2>&1 || fail=1
 grep -E 'warning:|error:' "$out/analyzer.out" > "$out/analyzer.log"
 verdict "$out/analyzer.log"

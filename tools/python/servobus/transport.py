@@ -1,5 +1,7 @@
-"""Byte transports under a Bus: a serial port (pyserial, imported only when used) or a
-TCP connection to servo-sim (or to anything else that carries the bus over TCP)."""
+"""Byte transports under a Bus: a serial port (pyserial, imported only when used), a
+serial port on a network server speaking RFC 2217 (rfc2217://HOST:PORT: ser2net, or
+servo-sim, which then models the baud rate), or a raw TCP connection to servo-sim (or to
+anything else that carries the bus over TCP, with no baud rate)."""
 
 import socket
 import time
@@ -74,7 +76,9 @@ class TcpTransport:
 
 
 class SerialTransport:
-    """A serial device (USB-RS485/TTL adapter), 8N1."""
+    """A serial device (USB-RS485/TTL adapter), 8N1, or a pyserial URL for one:
+    rfc2217://HOST:PORT is a serial port on a Telnet COM-PORT-CONTROL server (ser2net,
+    servo-sim). Both have a real baud rate, which set_baud changes on the port."""
 
     is_tcp = False
 
@@ -83,46 +87,81 @@ class SerialTransport:
             import serial  # pyserial, only needed for real ports
         except ImportError:
             raise ServoBusError(
-                "serial ports need pyserial: apt-get install python3-serial (or pip "
-                "install pyserial); tcp:// addresses work without it") from None
+                "serial ports and rfc2217:// need pyserial: apt-get install python3-serial "
+                "(or pip install pyserial); tcp:// addresses work without it") from None
+        self._serial = serial
         self.url = device
         self.baud = baud
+        self.remote = "://" in device
         try:
-            self.port = serial.Serial(device, baud, bytesize=8, parity="N", stopbits=1,
-                                      timeout=0, write_timeout=2)
+            if self.remote:  # no write time-out: pyserial's rfc2217 does not support one
+                self.port = serial.serial_for_url(device, baudrate=baud, bytesize=8,
+                                                  parity="N", stopbits=1, timeout=0)
+            else:
+                self.port = serial.Serial(device, baud, bytesize=8, parity="N", stopbits=1,
+                                          timeout=0, write_timeout=2)
         except (serial.SerialException, ValueError) as e:
-            raise ServoBusError("cannot open %s: %s" % (device, e)) from None
+            hint = ""
+            if self.remote:
+                hint = (" — is servo-sim (or ser2net) running there? servo-sim serves one "
+                        "client at a time: is another one connected?")
+            raise ServoBusError("cannot open %s: %s%s" % (device, e, hint)) from None
+
+    def _lost(self, e):
+        return ServoBusError("lost the connection to %s: %s" % (self.url, e))
 
     def set_baud(self, baud):
         self.baud = baud
-        self.port.baudrate = baud
+        try:
+            self.port.baudrate = baud
+        except (self._serial.SerialException, ValueError) as e:
+            raise ServoBusError("%s did not take %d baud: %s" % (self.url, baud, e)) from None
 
     def write(self, data):
-        self.port.write(data)
-        self.port.flush()
+        try:
+            self.port.write(data)
+            self.port.flush()
+        except self._serial.SerialException as e:
+            raise self._lost(e) from None
 
     def read(self, deadline):
         remaining = deadline - time.monotonic()
         if remaining <= 0:
             return b""
-        self.port.timeout = remaining
-        data = self.port.read(1)
-        if data and self.port.in_waiting:
-            data += self.port.read(self.port.in_waiting)
+        try:
+            self.port.timeout = remaining
+            data = self.port.read(1)
+            if data and self.port.in_waiting:
+                data += self.port.read(self.port.in_waiting)
+        except self._serial.SerialException as e:
+            raise self._lost(e) from None
         return data
 
     def flush_input(self):
-        self.port.reset_input_buffer()
+        """Drop whatever has arrived and not been read (late answers, noise). Over
+        rfc2217:// what has reached this side is dropped: a PURGE round trip to the
+        server would cost 50 ms per transaction in pyserial."""
+        try:
+            if not self.remote:
+                self.port.reset_input_buffer()
+                return
+            while self.port.in_waiting:
+                self.port.read(self.port.in_waiting)
+        except self._serial.SerialException as e:
+            raise self._lost(e) from None
 
     def close(self):
         self.port.close()
 
 
 def open_transport(port, baud):
-    """tcp://HOST:PORT or a serial device path."""
+    """tcp://HOST:PORT, rfc2217://HOST:PORT or a serial device path."""
     if port.startswith("tcp://"):
         return TcpTransport(port, baud)
+    if port.startswith("rfc2217://"):
+        return SerialTransport(port, baud)
     if "://" in port:
-        raise ServoBusError("unknown bus address '%s': use tcp://HOST:PORT or a serial "
-                            "device such as /dev/ttyUSB0" % port)
+        raise ServoBusError("unknown bus address '%s': use tcp://HOST:PORT, "
+                            "rfc2217://HOST:PORT or a serial device such as /dev/ttyUSB0"
+                            % port)
     return SerialTransport(port, baud)

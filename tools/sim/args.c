@@ -1,0 +1,115 @@
+/* args.c - servo-sim's command line (args.h). */
+#include "args.h"
+
+#include <arpa/inet.h>
+#include <stdbool.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "proto.h"
+
+static const char usage[] =
+    "usage: servo-sim --listen HOST:PORT [--servo ID:VARIANT]... [--state-dir DIR]";
+
+static bool parse_uint(const char *s, unsigned long max, unsigned long *out)
+{
+    if (!*s || strlen(s) > 9u)
+        return false;
+    for (const char *p = s; *p; p++)
+        if (*p < '0' || *p > '9')
+            return false;
+    *out = strtoul(s, 0, 10);
+    return *out <= max;
+}
+
+static void parse_listen(const char *arg, struct sockaddr_in *sa)
+{
+    const char *colon = strrchr(arg, ':');
+    char host[64];
+    unsigned long port;
+    if (!colon || (size_t)(colon - arg) >= sizeof host || colon == arg ||
+        !parse_uint(colon + 1, 65535, &port))
+        die(2, "bad --listen '%s': expected HOST:PORT, e.g. 127.0.0.1:4242", arg);
+    memcpy(host, arg, (size_t)(colon - arg));
+    host[colon - arg] = 0;
+    memset(sa, 0, sizeof *sa);
+    sa->sin_family = AF_INET;
+    sa->sin_port = htons((uint16_t)port);
+    if (strcmp(host, "localhost") == 0)
+        strcpy(host, "127.0.0.1");
+    if (inet_pton(AF_INET, host, &sa->sin_addr) != 1)
+        die(2, "bad --listen '%s': '%s' is not an IPv4 address (e.g. 127.0.0.1)", arg, host);
+}
+
+static void parse_servo(const char *arg, struct servo_arg *out)
+{
+    const char *colon = strchr(arg, ':');
+    char idtext[16];
+    unsigned long id;
+    if (!colon || (size_t)(colon - arg) >= sizeof idtext)
+        die(2, "bad --servo '%s': expected ID:VARIANT, e.g. 1:arm", arg);
+    memcpy(idtext, arg, (size_t)(colon - arg));
+    idtext[colon - arg] = 0;
+    if (!parse_uint(idtext, PROTO_ID_MAX, &id))
+        die(2, "bad ID '%s' in --servo %s: IDs are 0-253", idtext, arg);
+    const struct board *b = board_find(colon + 1);
+    if (!b)
+        die(2, "bad variant '%s' in --servo %s: expected base, foot, arm, wrist or finger",
+            colon + 1, arg);
+    out->id = (uint8_t)id;
+    out->board = b;
+    out->text = arg;
+}
+
+/* The value of option argv[*i] ("--opt VALUE" or "--opt=VALUE"), or 0 if it is not opt. */
+static const char *option(int argc, char **argv, int *i, const char *opt)
+{
+    size_t n = strlen(opt);
+    if (strncmp(argv[*i], opt, n) != 0)
+        return 0;
+    if (argv[*i][n] == '=')
+        return argv[*i] + n + 1;
+    if (argv[*i][n])
+        return 0;
+    if (*i + 1 >= argc)
+        die(2, "%s needs a value (%s)", opt, usage);
+    return argv[++*i];
+}
+
+static void add_servo(struct sim_args *a, const char *text)
+{
+    struct servo_arg s;
+    parse_servo(text, &s);
+    for (unsigned k = 0; k < a->nservos; k++)
+        if (a->servo[k].id == s.id)
+            die(2, "duplicate ID %u: --servo %s and --servo %s", s.id, a->servo[k].text, s.text);
+    a->servo[a->nservos++] = s; /* distinct IDs 0-253: never more than SIM_SERVOS_MAX */
+}
+
+void args_parse(int argc, char **argv, struct sim_args *a)
+{
+    memset(a, 0, sizeof *a);
+    for (int i = 1; i < argc; i++) {
+        const char *val;
+        if (strcmp(argv[i], "--help") == 0 || strcmp(argv[i], "-h") == 0) {
+            printf("%s\n", usage);
+            exit(0);
+        } else if ((val = option(argc, argv, &i, "--listen"))) {
+            parse_listen(val, &a->listen);
+            a->listen_text = val;
+        } else if ((val = option(argc, argv, &i, "--servo"))) {
+            add_servo(a, val);
+        } else if ((val = option(argc, argv, &i, "--state-dir"))) {
+            if (!*val)
+                die(2, "--state-dir needs a directory");
+            a->state_dir = val;
+        } else {
+            die(2, "unknown option '%s' (%s)", argv[i], usage);
+        }
+    }
+    if (!a->listen_text)
+        die(2, "missing --listen HOST:PORT (%s)", usage);
+    if (a->nservos == 0)
+        a->servo[a->nservos++] = (struct servo_arg){1, &board_arm, "1:arm"};
+}

@@ -1,0 +1,104 @@
+/* bus.h - the servos of servo-sim on one wire, in real time.
+ *
+ * Each servo is a node (hal/host/node.h) whose clock (hal.now_us) is CLOCK_MONOTONIC in
+ * microseconds, plus a configuration window before it. The line is hal/host/wire.h: what
+ * every servo sends goes on it at the servo's baud, two servos sending at once garble
+ * each other (the AND of the talkers, RS485 idle high), and every servo hears the line
+ * through its own UART at its own baud (register 4): other servos' answers included, its
+ * own echo and framing errors dropped, as the STM32 port does.
+ *
+ * The host, i.e. the TCP client, is one of two kinds (client.c tells them apart):
+ * - raw (tcp://, today's contract): no baud rate. Its bytes reach every servo the moment
+ *   they arrive, whatever the servo's baud, and take no wire time; it hears the line at
+ *   every baud (each byte at the baud of the talker whose start bit it is).
+ * - a UART at a baud the client sets (RFC 2217, rfc2217://): its bytes go on the line at
+ *   that baud, back to back, from when they arrive; it hears the line at that baud. A
+ *   servo at another baud receives what its UART would make of them: framing errors and
+ *   garbage, so it does not answer, and its answers reach the host as garbage.
+ *
+ * Time runs as discrete events in order, up to the real clock: a servo's main-loop pass
+ * at every BUS_TICK_US, when its answer falls due, and when its UART completes a byte;
+ * the host's UART completing a byte. A new byte only ever starts at such an event, so a
+ * byte is decoded from a line that is final up to its stop bit. A servo's answer starts
+ * up to BUS_LOOP_US plus 1/16 bit after it falls due (the MCU's main-loop latency and its
+ * receiver's sampling phase), drawn per answer: two servos with one ID answer a few
+ * microseconds apart, so their answers garble each other where a bit is shorter than
+ * about twice that (from 115200 baud up), and superimpose cleanly where it is longer.
+ * When the loop wakes late (a loaded host), the events run late in their order; beyond
+ * BUS_CATCH_UP_US behind (the process was stopped) the clock jumps.
+ *
+ * The motor and the photo switches of each servo are the host HAL's plant
+ * (hal_host_attach_board()), integrated up to the real clock. */
+#ifndef BUS_H
+#define BUS_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "node.h"
+#include "state.h"
+#include "wire.h"
+
+#define BUS_TICK_US 500u      /* main-loop period when nothing is due sooner */
+#define BUS_LOOP_US 8u        /* the MCU's main-loop latency: a reply starts up to this late */
+#define BUS_CATCH_UP_US 200000 /* a bus this far behind real time jumps */
+
+struct sim_servo {
+    struct node node;
+    uint8_t arg_id;      /* as given on the command line; names the state file */
+    struct state_file state;
+    struct wire_rx rx;   /* its UART on the line */
+    int64_t send_t0_ns;  /* the transmission its bytes belong to (exact bit times) */
+    uint32_t send_t0_us, send_baud, send_i;
+};
+
+/* Add a servo of board b: its state file first (with state_dir), then power-up; a new
+ * servo (blank flash) gets arg_id the one way (node_set_id), in virtual time before the
+ * real clock starts. Call before bus_start(). */
+void bus_add(uint8_t arg_id, const struct board *b, const char *state_dir);
+
+/* The real clock starts: every servo's clock is set to it. */
+void bus_start(void);
+
+unsigned bus_count(void);
+const struct sim_servo *bus_servo(unsigned i);
+
+/* Microseconds since the start, plus the configuration window (the servos' clocks are
+ * this, modulo 2^32, like the HAL's). */
+int64_t bus_now(void);
+
+/* Run everything that falls due up to now. */
+void bus_advance(int64_t now);
+
+/* Microseconds from now until something falls due (at most BUS_TICK_US). */
+uint32_t bus_next_wake(int64_t now);
+
+/* A client connected at now; its kind is not known yet (it is heard as raw). A new
+ * connection is a known frame boundary: every servo's receiver drops a frame in
+ * progress, so what a client that left mid-frame sent is gone. */
+void bus_host_connect(int64_t now);
+
+/* The client is gone: its bytes that have not started on the line are dropped. */
+void bus_host_disconnect(int64_t now);
+
+/* The client is a UART at baud (RFC 2217), from now on. */
+void bus_host_uart(uint32_t baud);
+
+/* Raw host bytes, arrived at now: every servo receives them at once. */
+void bus_host_raw(const uint8_t *in, size_t n, int64_t now);
+
+/* UART host bytes, arrived at now: on the line at the host's baud, after what it sent
+ * before. */
+void bus_host_send(const uint8_t *in, size_t n, int64_t now);
+
+/* Drop host bytes that have not started on the line yet (RFC 2217 purge). */
+void bus_host_purge(int64_t now);
+
+/* Bytes the host's receiver completed (since the last call), into out, at most max (the
+ * rest is dropped, as with no client: pass max 0). Returns the count. */
+size_t bus_output(uint8_t *out, size_t max);
+
+void bus_free(void);
+
+#endif
