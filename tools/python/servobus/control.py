@@ -1,13 +1,24 @@
 """The control table over the bus: READ, WRITE, REG WRITE/ACTION, SYNC WRITE, the whole
 table, the ID and a factory reset."""
 
+import time
+
 from . import protocol as P
-from .errors import IdTaken, ProtocolError, RangeError
-from .link import _MOTION_HINT
-from .registers import REGISTERS, TABLE_SIZE, register, variant_by_model
+from .errors import (BusTimeout, DuplicateId, IdTaken, NotApplied, ProtocolError,
+                     RangeError, ServoBusError, ServoFault)
+from .link import _MOTION_HINT, SESSION_HINT, check_id
+from .registers import REGISTERS, TABLE_SIZE, VARIANTS, register, variant_by_model
 
 _WRITE_HINT = ("a value out of range, a read-only, reserved or not-applicable register, "
-               "a CW limit above the CCW limit, or a motion command the servo refuses now")
+               "a CW limit above the CCW limit, a motion command the servo refuses now, "
+               "or " + SESSION_HINT)
+# Registers whose read-back differs from what was written by design: the goal is clamped
+# to the limits, clear_unload reads 0, homing reports its state in the high nibble.
+_NO_READBACK = ("goal_position", "clear_unload", "homing")
+
+
+def _all_variants(r):
+    return set(r.variants) == set(VARIANTS)
 
 
 class Control:
@@ -41,9 +52,16 @@ class Control:
                                                 "little")) for r in rs}
 
     def variant(self, servo_id):
-        """The servo's variant (from its model number; cached per ID), or None."""
+        """The servo's variant (from its model number; cached per ID), or None. A live
+        fault bit in the answer (a latched unload) does not stop it being read."""
         if servo_id not in self._variants:
-            self._variants[servo_id] = variant_by_model(self.read(servo_id, "model_number"))
+            try:
+                model = self.read(servo_id, "model_number")
+            except ServoFault as e:
+                if len(e.params) != 2:
+                    raise
+                model = int.from_bytes(e.params, "little")
+            self._variants[servo_id] = variant_by_model(model)
         return self._variants[servo_id]
 
     def resolution(self, servo_id):
@@ -74,15 +92,140 @@ class Control:
         """WRITE one register (name or address) or, with a dict, several contiguous ones
         in one packet. Values are in the register's unit (signed for speeds)."""
         regs_values = reg if isinstance(reg, dict) else {reg: value}
-        variant = self.variant(servo_id) if check_variant and servo_id != P.BROADCAST else None
+        check_id(servo_id, broadcast=True)
+        variant = None
+        if check_variant and servo_id != P.BROADCAST and \
+                not all(_all_variants(register(k)) for k in regs_values):
+            variant = self.variant(servo_id)
         address, data = self.encode(regs_values, variant)
-        names = ", ".join("%s=%s" % (register(k).name, v) for k, v in regs_values.items())
-        motion = any(register(k).name in ("goal_position", "moving_speed", "homing")
-                     for k in regs_values)
-        self.transact(servo_id, P.WRITE, bytes([address]) + data, "WRITE " + names,
-                      hint=_MOTION_HINT if motion else _WRITE_HINT, motion=motion)
-        if any(register(k).name == "id" for k in regs_values):
+        named = {register(k).name: v for k, v in regs_values.items()}
+        names = ", ".join("%s=%s" % kv for kv in named.items())
+        motion = any(n in ("goal_position", "moving_speed", "homing") for n in named)
+        pkt = self.transact(servo_id, P.WRITE, bytes([address]) + data, "WRITE " + names,
+                            hint=_MOTION_HINT if motion else _WRITE_HINT, motion=motion)
+        if servo_id == P.BROADCAST:
+            return
+        if pkt is None:
+            self._verify_silent(servo_id, named, "WRITE " + names)
+        elif "status_return_level" in named:
+            self._note_level(servo_id, named["status_return_level"])
+        if "id" in named and named["id"] != servo_id:
             self._variants.pop(servo_id, None)
+            level = self._levels.pop(servo_id, None)
+            if level is not None:
+                self._levels[named["id"]] = level
+
+    def _note_level(self, servo_id, level):
+        if level < 2:
+            self._levels[servo_id] = level
+        else:
+            self._levels.pop(servo_id, None)
+
+    def _verify_silent(self, servo_id, named, what):
+        """A WRITE the servo did not answer (status return level 0 or 1): check what can
+        be checked. A new ID: PING it there. Register 16 set to 1 or 2: READ it back. At
+        level 1: READ the other registers back. At level 0 nothing else can be checked
+        (self.confirmed stays False)."""
+        level = self._levels.get(servo_id, 0)
+        at = named.get("id", servo_id)
+        if "id" in named and not self.present(at, timeout=self.full_answer_time()):
+            raise NotApplied("ID %d did not move to ID %d: nothing answers PING there (it "
+                             "does not answer writes at status return level %d, so it "
+                             "cannot say why)" % (servo_id, at, level))
+        if "status_return_level" in named:
+            level = named["status_return_level"]
+            if level == 0:
+                self._levels[at] = 0
+                self.confirmed = "id" in named
+                return
+            self._levels[at] = level  # a READ is answered again from now on
+        if level == 0:
+            self.confirmed = "id" in named
+            return
+        check = {n: v for n, v in named.items() if n not in _NO_READBACK and n != "id"}
+        if not check:
+            self.confirmed = "id" in named
+            return
+        try:
+            got = self.read_many(at, list(check))
+        except BusTimeout:
+            raise NotApplied("ID %d did not take %s: it still does not answer READ" % (
+                at, what)) from None
+        wrong = {n: got[n] for n, v in check.items() if got[n] != v}
+        if wrong:
+            raise NotApplied("ID %d did not take %s: it reads %s (it answers only READ "
+                             "and PING at status return level %d, so it cannot say why)" %
+                             (at, what, ", ".join("%s=%s" % kv for kv in wrong.items()),
+                              level))
+        self._note_level(at, named.get("status_return_level", level))
+        self.confirmed = True
+
+    def plan_write(self, servo_id, regs_values):
+        """Check a set of {register: value} against everything known before sending any
+        of it: each value's range, that the register is writable and exists on the
+        servo's variant, and CW limit <= CCW limit with the values being written (the
+        other limit read from the servo if only one is written). Returns the WRITEs to
+        send: [(address, {register name: value})], one per contiguous run of registers
+        (a single WRITE when they are contiguous). RangeError, nothing sent."""
+        named = {}
+        for k, v in dict(regs_values).items():
+            r = register(k)
+            if r.name in named:
+                raise RangeError("%s is given twice" % r.name)
+            named[r.name] = v
+        if not named:
+            raise RangeError("nothing to write")
+        variant = None
+        if not all(_all_variants(register(n)) for n in named):
+            variant = self.variant(servo_id)
+        for n, v in named.items():
+            self.encode({n: v}, variant)
+        if "cw_angle_limit" in named or "ccw_angle_limit" in named:
+            limits = dict(named)
+            missing = [n for n in ("cw_angle_limit", "ccw_angle_limit") if n not in named]
+            if missing:
+                limits.update(self.read_many(servo_id, missing))
+            if limits["cw_angle_limit"] > limits["ccw_angle_limit"]:
+                raise RangeError(
+                    "cw_angle_limit %d would be above ccw_angle_limit %d (%s): the CW limit "
+                    "is the lower one; write both, the lower as cw_angle_limit" % (
+                        limits["cw_angle_limit"], limits["ccw_angle_limit"],
+                        "both given" if not missing else "%s read from ID %d" % (
+                            missing[0], servo_id)))
+        runs = []
+        for n in sorted(named, key=lambda x: register(x).address):
+            r = register(n)
+            if runs and runs[-1][2] == r.address:
+                runs[-1][1][n] = named[n]
+                runs[-1][2] = r.address + r.size
+            else:
+                runs.append([r.address, {n: named[n]}, r.address + r.size])
+        return [(a, rv) for a, rv, _ in runs]
+
+    def write_many(self, servo_id, regs_values):
+        """All or nothing: plan_write() checks every value first, then one WRITE per
+        contiguous run (one WRITE when the registers are contiguous, which the servo
+        applies whole or not at all). If a later WRITE is refused, the earlier ones are
+        written back to the values read before (best effort) and the refusal raised.
+        Returns the runs written."""
+        runs = self.plan_write(servo_id, regs_values)
+        before = []
+        if len(runs) > 1:
+            for _, rv in runs:
+                readable = [n for n in rv if register(n).readable and n not in _NO_READBACK]
+                before.append(self.read_many(servo_id, readable) if readable else {})
+        for i, (_, rv) in enumerate(runs):
+            try:
+                self.write(servo_id, rv, check_variant=False)
+            except ServoBusError:
+                for j in range(i):
+                    if before[j]:
+                        try:
+                            self.write(servo_id, before[j], check_variant=False)
+                        except ServoBusError:
+                            pass
+                raise
+        return runs
 
     def write_raw(self, servo_id, address, data):
         """WRITE raw bytes at address (no checks in the SDK; the servo validates)."""
@@ -140,22 +283,64 @@ class Control:
 
     # ---- configuration --------------------------------------------------------------
 
-    def set_id(self, servo_id, new_id, check_free=True):
-        """Give servo_id the ID new_id. Refuses (IdTaken) if another servo answers at
-        new_id. The answer comes from the old ID; afterwards the servo answers at the new."""
-        if not 0 <= new_id <= P.ID_MAX:
-            raise RangeError("ID %d is out of range 0..253" % new_id)
+    def set_id(self, servo_id, new_id, check_free=True, check_duplicate=True):
+        """Give servo_id the ID new_id. Refuses (IdTaken) if a servo answers at new_id,
+        and (DuplicateId) if two servos answer at servo_id: both would move. The answer
+        comes from the old ID; afterwards the servo answers at the new."""
+        check_id(servo_id)
+        if isinstance(new_id, bool) or not isinstance(new_id, int) or \
+                not 0 <= new_id <= P.ID_MAX:
+            raise RangeError("ID %r is out of range 0..253" % (new_id,))
         if new_id == servo_id:
             return
         self.ping(servo_id)  # the servo to change must be there
-        if check_free and self.present(new_id):
-            raise IdTaken("ID %d is already taken on the bus (a servo answered a PING "
-                          "there); choose another ID or move that servo first" % new_id)
+        if check_duplicate and self.duplicate(servo_id):
+            raise DuplicateId(
+                "two servos answer at ID %d: a new ID would go to both (see \"Two servos "
+                "on one ID\" in tools/python/README.md)" % servo_id)
+        if check_free:
+            self._check_free(new_id)
         self.write(servo_id, "id", new_id, check_variant=False)
         self._variants.pop(servo_id, None)
 
-    def reset(self, servo_id):
-        """RESET to factory values (ID 1, default baud...); answered with the old ID."""
-        self.transact(servo_id, P.RESET, what="RESET")
-        self._variants.clear()
+    def _check_free(self, new_id):
+        if self.present(new_id, timeout=self.full_answer_time()):
+            raise IdTaken("ID %d is already taken on the bus (a servo answered a PING "
+                          "there); choose another ID or move that servo first" % new_id)
 
+    def reset(self, servo_id, check_free=True):
+        """RESET to factory values (ID 1, default baud...); answered with the old ID.
+        Refuses (IdTaken) if another servo answers at ID 1, where this one would land.
+        A servo that does not answer it (status return level 0 or 1) is looked for at
+        ID 1 afterwards."""
+        check_id(servo_id)
+        if check_free and servo_id != 1:
+            self._check_free(1)
+        try:
+            pkt = self.transact(servo_id, P.RESET, what="RESET")
+        except BusTimeout:
+            if not self._reset_took(servo_id):
+                raise
+            pkt = None
+        if pkt is None and self._reset_took(servo_id):
+            self.confirmed = True
+        self._variants.clear()
+        self._levels.pop(servo_id, None)
+        self._levels.pop(1, None)
+
+    def _reset_took(self, servo_id):
+        """After a RESET that was not answered: does a servo at factory settings answer
+        at ID 1 (level 2 again: it answers READ)?"""
+        deadline = time.monotonic() + 1.0
+        while True:
+            saved, self.timeout = self.timeout, None
+            try:
+                if self.read_raw(1, 16, 1)[0] == 2:
+                    return True
+            except ServoBusError:
+                pass
+            finally:
+                self.timeout = saved
+            if time.monotonic() > deadline:
+                return False
+            time.sleep(0.05)

@@ -1,27 +1,78 @@
 """Transport and transactions: one host on one servo bus, the instruction sent and the
-status packet that answers it, and discovery (PING, broadcast PING scan)."""
+status packet that answers it, and discovery (PING, broadcast PING scan, two servos on
+one ID, a servo waiting in its bootloader).
 
+Every answer is matched to its request: it must come from the ID addressed, have the
+shape of that instruction's answer (PING `03 01 ERR`, a READ's exact length, no
+parameters otherwise), and arrive after the request; bytes that may still be on their
+way from an earlier request (one that timed out) are waited for and dropped before the
+next request goes out."""
+
+import math
 import time
 from collections import namedtuple
 
 from . import protocol as P
-from .errors import BusTimeout, ProtocolError, RangeError, ServoBusError, status_error
+from .errors import (BusTimeout, ProtocolError, RangeError, ServoBusError, ServoFault,
+                     status_error)
 from .registers import BAUD_RATES
 from .transport import open_transport
 
 Found = namedtuple("Found", "id baud err")
 
-_MOTION_HINT = ("the servo cannot run this motion now — firmware without motion support, "
-                "no homing reference yet (home it, or see register 49 "
-                "move_without_reference), a latched protection unload (write 1 to "
-                "register 25 clear_unload), or speed mode")
-# What a CAN (0x18) answer to each update step means (src/update.c).
+# An open update session (§10) refuses everything but PING and READ for 10 s after its
+# last frame (src/dispatch.c): a refusal hint names it.
+SESSION_HINT = "an update session still open (it ends 10 s after the last update frame)"
+_MOTION_HINT = ("the servo cannot run this motion now — no homing reference yet (home "
+                "it, or see register 49 move_without_reference), a latched protection "
+                "unload (write 1 to register 25 clear_unload), speed mode, or " +
+                SESSION_HINT)
+# Seconds a Bus(timeout=...) may be: more than 0, at most an hour.
+TIMEOUT_RANGE = (0.001, 3600.0)
+
+
+def check_id(servo_id, broadcast=False):
+    """RangeError unless servo_id is 0-253 (or 254, broadcast, where allowed)."""
+    top = P.BROADCAST if broadcast else P.ID_MAX
+    if isinstance(servo_id, bool) or not isinstance(servo_id, int) or \
+            not 0 <= servo_id <= top:
+        if servo_id == P.BROADCAST:
+            raise RangeError("ID 254 is the broadcast ID: nobody answers it (except a "
+                             "broadcast PING, which scan() sends); give one servo's ID "
+                             "0-253")
+        raise RangeError("ID %r is not a servo ID (0-253%s)" % (
+            servo_id, ", or 254 to broadcast" if broadcast else ""))
+
+
+def answer_shape(ins, params=b""):
+    """A predicate: is this status packet shaped as the answer to `ins`? PING:
+    `LEN 3, 01, ERR`; READ of n bytes: n parameters; everything else none. An error
+    answer (ERR bit 4 or 5) has no parameters whatever the instruction."""
+    if ins == P.PING:
+        return lambda pkt: len(pkt.params) == 1 and pkt.err == 0x01
+    count = params[1] if ins == P.READ and len(params) >= 2 else 0
+
+    def shaped(pkt):
+        if pkt.err & (P.ERR_INSTRUCTION | P.ERR_CHECKSUM) and not pkt.params:
+            return True
+        return len(pkt.params) == count
+    return shaped
 
 
 class Link:
     """The transactions of a Bus (see servobus.bus.Bus for the constructor's arguments)."""
 
     def __init__(self, port, baud=9600, timeout=None, raise_faults=True):
+        if not isinstance(port, str) or not port:
+            raise RangeError("port %r: give tcp://HOST:PORT or a serial device" % (port,))
+        if baud not in BAUD_RATES:
+            raise RangeError("baud %s is not one of %s" % (baud, BAUD_RATES))
+        if timeout is not None:
+            if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or \
+                    not math.isfinite(timeout) or \
+                    not TIMEOUT_RANGE[0] <= timeout <= TIMEOUT_RANGE[1]:
+                raise RangeError("timeout %r: give seconds, %g to %g" % (
+                    timeout, TIMEOUT_RANGE[0], TIMEOUT_RANGE[1]))
         self.port = port
         self.baud = baud
         self.timeout = timeout
@@ -29,7 +80,11 @@ class Link:
         self.faults = {}  # ID -> last ERR byte with a fault bit
         self.last_err = 0  # ERR byte of the last answer
         self.scan_notes = []  # what the last scan noticed (garbled answers...)
+        self.duplicates = []  # IDs the last scan found two servos at
+        self.confirmed = True  # False: the last instruction went out unanswered (level 0)
         self._variants = {}
+        self._levels = {}  # ID -> status return level (register 16) once found below 2
+        self._quiet_at = 0.0  # a late answer may arrive until then: drain before sending
         self.update_stats = None  # UpdateStats of the last update()
         self._ustats = [0, 0, 0, 0]
         self._t = open_transport(port, baud)
@@ -61,24 +116,45 @@ class Link:
         on the wire, and slack for the OS and USB adapters."""
         if self.timeout is not None:
             return self.timeout
+        return self.full_answer_time(nbytes)
+
+    def full_answer_time(self, nbytes=7):
+        """The answer time-out computed from the baud rate, whatever Bus(timeout=)."""
         return P.MAX_RETURN_DELAY_S + nbytes * P.byte_time(self.baud) + 0.06
 
     def _where(self):
         return "at %d baud%s" % (self.baud, " on %s" % self.port if self.is_tcp else "")
 
-    def send(self, servo_id, ins, params=b""):
-        """Put one instruction packet on the bus (input is flushed first)."""
-        pkt = P.instruction(servo_id, ins, params)
+    def _drain(self):
+        """Wait until no late answer to an earlier request can still arrive, then drop
+        whatever has arrived: stale bytes are never taken for the next answer."""
+        while time.monotonic() < self._quiet_at:
+            self._t.read(self._quiet_at)
         self._t.flush_input()
+
+    def _late_until(self, sent, nbytes):
+        """After a request that went unanswered, an answer to it may still arrive until
+        the longest return delay and its bytes have passed."""
+        self._quiet_at = max(self._quiet_at, time.monotonic() + P.MAX_RETURN_DELAY_S +
+                             (len(sent) + nbytes) * P.byte_time(self.baud) + 0.03)
+
+    def send(self, servo_id, ins, params=b""):
+        """Put one instruction packet on the bus (stale input is drained first)."""
+        check_id(servo_id, broadcast=True)
+        try:
+            pkt = P.instruction(servo_id, ins, params)
+        except ValueError as e:
+            raise RangeError(str(e)) from None
+        self._drain()
         self._t.write(pkt)
         return pkt
 
-    def receive(self, servo_id, sent, nbytes, what):
+    def receive(self, servo_id, sent, nbytes, what, shape=None):
         """The status packet from servo_id answering `sent` (an exact echo of `sent`, as
-        some adapters give, is skipped)."""
+        some adapters give, is skipped; so is a packet not shaped as the answer)."""
         parser = P.StatusParser()
         deadline = time.monotonic() + self.answer_timeout(nbytes)
-        corrupt = None
+        corrupt = misshaped = None
         while True:
             data = self._t.read(deadline)
             if not data and time.monotonic() >= deadline:
@@ -90,17 +166,29 @@ class Link:
                     corrupt = pkt
                     continue
                 if pkt.id == servo_id:
-                    return pkt
-        if corrupt is not None:
+                    if shape is None or shape(pkt):
+                        return pkt
+                    misshaped = pkt
+        self._late_until(sent, nbytes)
+        if corrupt is not None or parser.skipped:
+            raw = corrupt.raw if corrupt is not None else b""
             raise ProtocolError(
-                "corrupt status packet from ID %d %s (%s, bad checksum) — noise, a baud "
-                "mismatch, or two servos with one ID?" % (servo_id, self._where(),
-                                                          corrupt.raw.hex(" ")))
+                "garbled answer from ID %d %s (%s) — two servos with one ID answering "
+                "at once, noise, or a baud mismatch; `servoctl --id %d ping` tells two "
+                "servos apart from noise" % (servo_id, self._where(),
+                                             raw.hex(" ") or "bytes without a packet",
+                                             servo_id))
         if parser.pending():
             raise BusTimeout(
-                "incomplete status packet from ID %d %s (%d bytes: %s) — baud mismatch or "
-                "noise?" % (servo_id, self._where(), parser.pending(),
-                            bytes(parser.buf).hex(" ")), servo_id)
+                "incomplete status packet from ID %d %s (%d bytes: %s) — baud mismatch, "
+                "noise, or two servos with one ID?" % (
+                    servo_id, self._where(), parser.pending(),
+                    bytes(parser.buf).hex(" ")), servo_id)
+        if misshaped is not None:
+            raise ProtocolError(
+                "ID %d answered %s with a packet of another shape (%s): not its answer "
+                "(a late answer to an earlier request?)" % (servo_id, what,
+                                                            misshaped.raw.hex(" ")))
         hint = "wrong ID or baud? try `servoctl scan --all-bauds`"
         if what.split()[0] not in ("PING", "READ"):
             hint += "; or the servo's status return level (register 16) is below 2"
@@ -110,12 +198,42 @@ class Link:
     def transact(self, servo_id, ins, params=b"", what=None, nbytes=7, motion=False,
                  hint=""):
         """Send an instruction; for a single ID wait for its answer and raise on ERR bits.
-        Returns the StatusPacket, or None for broadcast."""
+        Returns the StatusPacket, or None for broadcast and for an instruction sent to a
+        servo whose status return level (register 16) keeps it silent (self.confirmed
+        is then False: the caller verifies what it can)."""
         what = what or P.INSTRUCTION_NAMES.get(ins, "instruction 0x%02X" % ins)
+        check_id(servo_id, broadcast=ins not in (P.PING, P.READ))
+        self.confirmed = True
+        silent = servo_id != P.BROADCAST and ins not in (P.PING, P.READ) and \
+            self._levels.get(servo_id, 2) < 2
         sent = self.send(servo_id, ins, params)
         if servo_id == P.BROADCAST:
             return None
-        pkt = self.receive(servo_id, sent, nbytes, what)
+        if silent:
+            self.confirmed = False
+            self._late_until(sent, 0)  # the packet's own time on the wire
+            return None
+        try:
+            pkt = self.receive(servo_id, sent, nbytes, what, answer_shape(ins, params))
+        except BusTimeout as e:
+            if ins == P.READ and self._levels.get(servo_id) != 1 and \
+                    self.present(servo_id, timeout=self.full_answer_time()):
+                self._levels[servo_id] = 0
+                raise BusTimeout(
+                    "ID %d answers PING but not %s: its status return level (register 16) "
+                    "is 0 — `servoctl --id %d set status_return_level 2` (bus.write(%d, "
+                    "'status_return_level', 2)) makes it answer again" % (
+                        servo_id, what, servo_id, servo_id), servo_id) from None
+            if ins in (P.PING, P.READ):
+                raise
+            try:  # a servo that answers PING but not this: register 16 keeps it silent
+                level = self.status_return_level(servo_id)
+            except BusTimeout:
+                raise e from None
+            if level >= 2:
+                raise
+            self.confirmed = False
+            return None
         err = pkt.ping_err() if ins == P.PING else pkt.err
         self.last_err = err
         self._check(servo_id, err, what, hint or (_MOTION_HINT if motion else ""),
@@ -129,6 +247,30 @@ class Link:
                 err & P.ERR_FAULTS and self.raise_faults):
             raise status_error(servo_id, err, what, hint, params, motion)
 
+    def status_return_level(self, servo_id):
+        """Register 16 of a servo, found even at level 0 (where only PING is answered):
+        READ it; if that is not answered but PING is, the level is 0. BusTimeout if the
+        servo answers neither. The level is remembered, so that later instructions to a
+        silent servo are sent without waiting for an answer that will not come."""
+        saved, self.timeout = self.timeout, None  # not a short Bus(timeout=) here
+        try:
+            level = self.read_raw(servo_id, 16, 1)[0]
+        except BusTimeout:
+            if self._levels.get(servo_id) != 0:  # the READ's time-out PINGed it: absent
+                raise
+            level = 0
+        except ServoFault as e:  # a live fault bit: the answer is there all the same
+            level = e.params[0] if len(e.params) == 1 else 2
+        except ServoBusError:
+            return 2
+        finally:
+            self.timeout = saved
+        if level < 2:
+            self._levels[servo_id] = level
+        else:
+            self._levels.pop(servo_id, None)
+        return level
+
     # ---- discovery ------------------------------------------------------------------
 
     def ping(self, servo_id):
@@ -138,6 +280,7 @@ class Link:
 
     def present(self, servo_id, timeout=None):
         """True if servo_id answers a PING."""
+        check_id(servo_id)
         saved = self.timeout
         if timeout is not None:
             self.timeout = timeout
@@ -147,9 +290,49 @@ class Link:
         except BusTimeout:
             return False
         except ServoBusError:
-            return True  # it answered, if with an error
+            return True  # it answered, if with an error or garbled (two servos?)
         finally:
             self.timeout = saved
+
+    def listen(self, servo_id, frame, shape):
+        """Send a raw frame to servo_id and listen for the whole answer window (the
+        longest return delay): (intact answers from servo_id shaped as `shape` wants,
+        garbled: whether bytes arrived that are not such an answer)."""
+        check_id(servo_id)
+        self._drain()
+        self._t.write(frame)
+        parser = P.StatusParser()
+        deadline = time.monotonic() + self.full_answer_time(16)
+        answers, garbled = [], False
+        while time.monotonic() < deadline:
+            for pkt in parser.feed(self._t.read(deadline)):
+                if pkt.raw == frame:
+                    continue
+                if pkt.ok and pkt.id == servo_id and shape(pkt):
+                    answers.append(pkt)
+                else:
+                    garbled = True
+        return answers, garbled or parser.skipped > 0 or parser.pending() > 0
+
+    def duplicate(self, servo_id, tries=2):
+        """True if two (or more) servos answer at servo_id: two intact answers to one
+        PING (different return delays), or answers garbled by their collision — seen at
+        each of `tries` PINGs, so that a burst of noise is not taken for a collision."""
+        ping = P.instruction(servo_id, P.PING)
+        for _ in range(tries):
+            answers, garbled = self.listen(servo_id, ping, answer_shape(P.PING))
+            if len(answers) < 2 and not garbled:
+                return False
+        return True
+
+    def in_update_mode(self, servo_id):
+        """True if servo_id answers the §10 enter frame with `D5 5D ID 03 00 43` although
+        (call it only then) it does not answer PING: its bootloader waits in update mode
+        (a damaged application, or a new image that did not confirm itself after 3
+        starts). A good image sent with update() brings it back."""
+        answers, _ = self.listen(servo_id, P.update_enter(servo_id),
+                                 lambda pkt: pkt.err == 0 and pkt.params == bytes([P.READY]))
+        return bool(answers)
 
     def scan_window(self, baud=None):
         """Seconds a broadcast PING's answers take: the longest return delay plus one
@@ -161,8 +344,11 @@ class Link:
     def scan(self, all_bauds=False):
         """Broadcast PING (ID-slotted answers, §4.1) at the bus baud, or at every baud of
         §5.2 with all_bauds. Returns a list of Found(id, baud, err) sorted by ID. Over
-        tcp:// the simulator hears every baud, so all_bauds scans once (harmless)."""
+        tcp:// the simulator hears every baud, so all_bauds scans once (harmless).
+        Two servos on one ID: two answers in one slot, or a garbled slot, confirmed by
+        duplicate(); their IDs are in self.duplicates and scan_notes says so."""
         self.scan_notes = []
+        self.duplicates = []
         bauds = [self.baud]
         if all_bauds and self.is_tcp:
             self.scan_notes.append("over tcp:// every servo hears the host whatever its "
@@ -175,26 +361,64 @@ class Link:
             for baud in bauds:
                 if baud != self.baud:
                     self.set_baud(baud)
-                for f in self._scan_once():
+                for f in self._scan_once(found):
                     found.setdefault(f.id, f)
         finally:
             if self.baud != start_baud:
                 self.set_baud(start_baud)
         return [found[i] for i in sorted(found)]
 
-    def _scan_once(self):
+    def _scan_once(self, known):
         sent = self.send(P.BROADCAST, P.PING)
+        t0 = time.monotonic()
+        slot = P.SLOT_BYTES * P.byte_time(self.baud)
         parser = P.StatusParser()
-        deadline = time.monotonic() + self.scan_window()
-        out = []
+        deadline = t0 + self.scan_window()
+        out, seen, garbled_at = [], set(), []
         while time.monotonic() < deadline:
-            for pkt in parser.feed(self._t.read(deadline)):
+            data = self._t.read(deadline)
+            skipped = parser.skipped
+            for pkt in parser.feed(data):
                 if pkt.raw == sent:
                     continue
                 if not pkt.ok or len(pkt.params) != 1 or pkt.err != 0x01:
-                    self.scan_notes.append("a garbled answer at %d baud (%s): two servos "
-                                           "with one ID?" % (self.baud, pkt.raw.hex(" ")))
+                    garbled_at.append(time.monotonic() - t0)
                     continue
+                if pkt.id in seen:  # a second answer in one ID's slot
+                    self._note_duplicate(pkt.id, "two answers at ID %d" % pkt.id)
+                    continue
+                seen.add(pkt.id)
                 out.append(Found(pkt.id, self.baud, pkt.params[0]))
+            if parser.skipped > skipped:
+                garbled_at.append(time.monotonic() - t0)
+        if parser.pending():
+            garbled_at.append(self.scan_window())
+        if garbled_at:
+            self._explain_garbled(garbled_at, slot, seen | set(known))
         return out
 
+    def _note_duplicate(self, servo_id, how):
+        if servo_id not in self.duplicates:
+            self.duplicates.append(servo_id)
+            self.scan_notes.append(
+                "two servos answer at ID %d (%s): see \"Two servos on one ID\" in "
+                "tools/python/README.md" % (servo_id, how))
+
+    def _explain_garbled(self, times, slot, answered):
+        """Garbled bytes in a scan: find the ID whose slot they fell in (assuming the
+        factory return delays, 4 or 8 ms) and check it with duplicate()."""
+        candidates = []
+        for t in times:
+            for delay in (0.008, 0.004):
+                n = int((t - delay) / slot)
+                for i in (n, n - 1, n + 1):
+                    if 0 <= i <= P.ID_MAX and i not in answered and i not in candidates:
+                        candidates.append(i)
+        for servo_id in candidates[:6]:
+            if self.duplicate(servo_id):
+                self._note_duplicate(servo_id, "their answers garble each other")
+                return
+        self.scan_notes.append(
+            "garbled bytes in the answer window at %d baud, about %.0f ms after the "
+            "PING: noise, or two servos with one ID (`servoctl --id N ping` checks ID N)"
+            % (self.baud, times[0] * 1e3))
