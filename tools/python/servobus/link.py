@@ -86,6 +86,8 @@ class Link:
         self._levels = {}  # ID -> status return level (register 16) once found below 2
         self._quiet_at = 0.0  # a late answer may arrive until then: drain before sending
         self.update_stats = None  # UpdateStats of the last update()
+        self.update_step = None  # the §10 step under way (what an interrupt cuts short)
+        self.update_mode = False  # the last update() found the servo in update mode
         self._ustats = [0, 0, 0, 0]
         self._t = open_transport(port, baud)
 

@@ -7,7 +7,12 @@ from collections import namedtuple
 
 from . import image as I
 from . import protocol as P
-from .errors import ServoBusError, UpdateError, UpdateRefused, UpdateTimeout
+from .errors import (BusTimeout, RangeError, ServoBusError, UpdateError, UpdateRefused,
+                     UpdateTimeout)
+from .link import check_id
+
+IN_UPDATE_MODE = ("it waits in its bootloader's update mode (its application is damaged, "
+                  "or a new image did not confirm itself within 3 starts)")
 
 UpdateStats = namedtuple("UpdateStats",
                          "frames resent bytes_out bytes_in transfer_s restart_s")
@@ -64,19 +69,45 @@ class Update:
         frames sent (resent: how many were repeats), bytes_out (frames, repeats
         included), bytes_in (the answers taken), transfer_s (enter to the end-of-batch
         answer) and restart_s (from there to the version read)."""
-        image = bytes(image)
+        check_id(servo_id)
+        try:
+            image = bytes(image)
+        except (TypeError, ValueError):
+            raise RangeError("the image is bytes, not %s" % type(image).__name__) from None
+        if not image:
+            raise I.ImageError("an empty image (0 bytes): nothing to send (its header "
+                               "block would read as the end of batch)")
+        if isinstance(retries, bool) or not isinstance(retries, int) or \
+                not 0 <= retries <= 100:
+            raise RangeError("retries %r: give 0..100" % (retries,))
         if notify is None:
             def notify(text):
                 print("servobus: note: " + text, file=sys.stderr)
+        self.update_step = None
+        self.update_mode = False
         expect_version = None
-        if check:
-            info = I.validate(image)
-            if self.present(servo_id) or self.present(servo_id):  # a lost PING: once more
-                I.validate(image, self.read(servo_id, "model_number"))
-            else:
-                notify("ID %d does not answer PING at %d baud: assuming it waits in its "
-                       "bootloader (update mode answers only update frames) and updating "
-                       "it without checking its model" % (servo_id, self.baud))
+        info = I.validate(image) if check else None
+        if self.present(servo_id, timeout=self.full_answer_time()):
+            if check:
+                try:
+                    saved, self.timeout = self.timeout, None
+                    model = self.read(servo_id, "model_number")
+                except BusTimeout:
+                    notify("ID %d answers PING but not READ (status return level 0): its "
+                           "model is not compared with the image's; the servo checks it "
+                           "itself" % servo_id)
+                else:
+                    I.validate(image, model)
+                finally:
+                    self.timeout = saved
+        elif self.in_update_mode(servo_id):
+            self.update_mode = True
+            notify("ID %d does not answer PING but answers the update handshake: %s; a "
+                   "good image brings it back" % (servo_id, IN_UPDATE_MODE))
+        else:
+            notify("ID %d answers neither PING nor the update handshake at %d baud: "
+                   "trying the update all the same" % (servo_id, self.baud))
+        if info is not None:
             expect_version = info.version
         else:
             try:
@@ -92,6 +123,7 @@ class Update:
             progress(0, blocks, 0, len(image))
         t0 = time.monotonic()
         for step, frame, nbytes in frames:
+            self.update_step = step  # what Ctrl-C interrupts (servoctl says so)
             self._update_step(servo_id, step, frame, retries)
             if nbytes:
                 done += 1
@@ -99,8 +131,11 @@ class Update:
                 if progress:
                     progress(done, blocks, sent, len(image))
         t1 = time.monotonic()
+        self.update_step = "restart"
         self._variants.pop(servo_id, None)
+        self._levels.pop(servo_id, None)
         version = self._await_restart(servo_id, restart_timeout, expect_version)
+        self.update_step = None
         self.update_stats = UpdateStats(*self._ustats, transfer_s=t1 - t0,
                                         restart_s=time.monotonic() - t1)
         return version
@@ -112,7 +147,7 @@ class Update:
         naks = silent = 0
         last = ""
         for attempt in range(retries + 1):
-            self._t.flush_input()
+            self._drain()
             self._t.write(frame)
             self._ustats[0] += 1
             self._ustats[1] += attempt > 0
@@ -184,8 +219,9 @@ class Update:
                     continue
                 if not pkt.ok:
                     corrupt = pkt
-                elif pkt.id == servo_id:
+                elif pkt.id == servo_id and _update_answer_shape(pkt):
                     return pkt, None
+        self._late_until(sent, P.UPDATE_ANSWER_BYTES)
         if corrupt is not None:
             return None, "a corrupt answer: %s" % corrupt.raw.hex(" ")
         if parser.pending():
@@ -194,7 +230,8 @@ class Update:
 
     def _await_restart(self, servo_id, timeout, expect_version):
         """After the end of batch: poll PING until the restarted servo answers, then its
-        firmware version (register 2); until it is expect_version if that is known."""
+        firmware version (register 2); until it is expect_version if that is known.
+        None if it answers PING but not READ (status return level 0)."""
         deadline = time.monotonic() + timeout
         time.sleep(0.02)  # the servo restarts once its last answer is out
         version = None
@@ -204,18 +241,35 @@ class Update:
                     version = self.read(servo_id, "firmware_version")
                     if expect_version is None or version == expect_version:
                         return version
+            except BusTimeout:
+                if self._levels.get(servo_id) == 0:  # PING answered, READ not
+                    return None
             except ServoBusError:
                 pass
             if time.monotonic() > deadline:
                 break
             time.sleep(0.05)
         if version is None:
+            if self.in_update_mode(servo_id):
+                self.update_mode = True
+                raise UpdateError(
+                    "ID %d took the image but does not start it: %s — send a good image "
+                    "(`servoctl --id %d update FILE`)" % (servo_id, IN_UPDATE_MODE,
+                                                          servo_id), servo_id, "restart")
             raise UpdateError(
                 "ID %d took the image but does not answer PING %.0f s later: it may still "
-                "be installing it, or be waiting in its bootloader (update mode) — PING it "
-                "again later, or repeat the update" % (servo_id, timeout), servo_id,
-                "restart")
+                "be installing it — PING it again later, or repeat the update" % (
+                    servo_id, timeout), servo_id, "restart")
         raise UpdateError(
             "ID %d took the image but restarted with firmware version %d, not the image's "
             "%d: its bootloader did not install it" % (servo_id, version, expect_version),
             servo_id, "restart")
+
+
+def _update_answer_shape(pkt):
+    """An answer to an update frame: 'C', ACK, NAK or CAN (ACK 'C' after the header block
+    and the end of file), or an error answer without parameters."""
+    if pkt.err & (P.ERR_INSTRUCTION | P.ERR_CHECKSUM) and not pkt.params:
+        return True
+    return pkt.err == 0 and 1 <= len(pkt.params) <= 2 and \
+        pkt.params[0] in (P.READY, P.ACK, P.NAK, P.CAN)
