@@ -24,6 +24,8 @@ def _all_variants(r):
 class Control:
     """Register access (a mixin of Bus: it uses Link's transactions)."""
 
+    _unchanged = False  # write_many() found the WRITE's EEPROM values already there
+
     def read_raw(self, servo_id, address, count):
         """READ count bytes from address; returns bytes."""
         if not (0 <= address < TABLE_SIZE and 1 <= count <= TABLE_SIZE - address):
@@ -101,16 +103,20 @@ class Control:
         named = {register(k).name: v for k, v in regs_values.items()}
         names = ", ".join("%s=%s" % kv for kv in named.items())
         motion = any(n in ("goal_position", "moving_speed", "homing") for n in named)
+        self.commit_wait = None
         pkt = self.transact(servo_id, P.WRITE, bytes([address]) + data, "WRITE " + names,
                             hint=_MOTION_HINT if motion else _WRITE_HINT, motion=motion)
         if servo_id == P.BROADCAST:
             return
+        if any(register(n).area == "EEPROM" for n in named) and not self._unchanged:
+            self.commit_wait = self.commit_budget.commit(self.budget_key(servo_id))
         if pkt is None:
             self._verify_silent(servo_id, named, "WRITE " + names)
         elif "status_return_level" in named:
             self._note_level(servo_id, named["status_return_level"])
         if "id" in named and named["id"] != servo_id:
             self._variants.pop(servo_id, None)
+            self.commit_budget.moved(self.budget_key(servo_id), self.budget_key(named["id"]))
             level = self._levels.pop(servo_id, None)
             if level is not None:
                 self._levels[named["id"]] = level
@@ -216,6 +222,7 @@ class Control:
                 before.append(self.read_many(servo_id, readable) if readable else {})
         for i, (_, rv) in enumerate(runs):
             try:
+                self._unchanged = self._same_eeprom(servo_id, rv)
                 self.write(servo_id, rv, check_variant=False)
             except ServoBusError:
                 for j in range(i):
@@ -225,7 +232,19 @@ class Control:
                         except ServoBusError:
                             pass
                 raise
+            finally:
+                self._unchanged = False
         return runs
+
+    def _same_eeprom(self, servo_id, rv):
+        """True if every register of rv is EEPROM and already holds its value: the WRITE
+        costs no flash commit (docs/persistence.md). False when unsure."""
+        if not all(register(n).area == "EEPROM" and register(n).readable for n in rv):
+            return False
+        try:
+            return self.read_many(servo_id, list(rv)) == dict(rv)
+        except ServoBusError:
+            return False
 
     def write_raw(self, servo_id, address, data):
         """WRITE raw bytes at address (no checks in the SDK; the servo validates)."""
@@ -324,6 +343,9 @@ class Control:
             pkt = None
         if pkt is None and self._reset_took(servo_id):
             self.confirmed = True
+        self.commit_wait = self.commit_budget.commit(self.budget_key(servo_id))
+        if servo_id != 1:
+            self.commit_budget.moved(self.budget_key(servo_id), self.budget_key(1))
         self._variants.clear()
         self._levels.pop(servo_id, None)
         self._levels.pop(1, None)

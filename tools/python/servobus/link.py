@@ -15,6 +15,7 @@ from collections import namedtuple
 from . import protocol as P
 from .errors import (BusTimeout, ProtocolError, RangeError, ServoBusError, ServoFault,
                      status_error)
+from .budget import CommitBudget
 from .registers import BAUD_RATES
 from .transport import open_transport
 
@@ -89,7 +90,14 @@ class Link:
         self.update_step = None  # the §10 step under way (what an interrupt cuts short)
         self.update_mode = False  # the last update() found the servo in update mode
         self._ustats = [0, 0, 0, 0]
+        # Estimated flash commit budget of each servo (budget.py); servoctl gives it a
+        # state file. commit_wait: seconds the last EEPROM write may wait for flash.
+        self.commit_budget = CommitBudget()
+        self.commit_wait = None
         self._t = open_transport(port, baud)
+
+    def budget_key(self, servo_id):
+        return "%s#%d" % (self.port, servo_id)
 
     # ---- plumbing -------------------------------------------------------------------
 

@@ -136,6 +136,7 @@ class Update:
         self._levels.pop(servo_id, None)
         version = self._await_restart(servo_id, restart_timeout, expect_version)
         self.update_step = None
+        self.commit_budget.restarted(self.budget_key(servo_id))  # full after a restart
         self.update_stats = UpdateStats(*self._ustats, transfer_s=t1 - t0,
                                         restart_s=time.monotonic() - t1)
         return version
