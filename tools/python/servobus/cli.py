@@ -18,7 +18,8 @@ from . import image as I
 from . import protocol as P
 from .budget import CommitBudget
 from .bus import Bus
-from .errors import BusTimeout, IdTaken, RangeError, ServoBusError, UnknownRegister
+from .errors import (BusTimeout, IdTaken, InstructionError, RangeError, ServoBusError,
+                     UnknownRegister)
 from .registers import BAUD_RATES, REGISTERS, VARIANTS, baud_of_code, register
 from .update import IN_UPDATE_MODE as _IN_UPDATE_MODE
 
@@ -111,10 +112,14 @@ def cmd_scan(bus, args):
     for note in bus.scan_notes:
         _note(note)
     bauds = "every baud" if args.all_bauds and not bus.is_tcp else "%d baud" % bus.baud
+    if not found and bus.duplicates:
+        raise ServoBusError("no servo answered a broadcast PING intact, and two servos "
+                            "answer at ID %s: see \"Two servos on one ID\" in "
+                            "tools/python/README.md" % ", ".join(map(str, bus.duplicates)))
     if not found:
         print("no servo answered a broadcast PING at %s%s" % (
             bauds, "" if args.all_bauds else " (try --all-bauds)"))
-        if bus.in_update_mode(args.id):  # cheap: one frame to the ID given (default 1)
+        if not bus.scan_notes and bus.in_update_mode(args.id):  # cheap: one frame to the ID given (default 1)
             raise ServoBusError("ID %d answers the update handshake, not PING: %s — send "
                                 "a good image: `servoctl --id %d update FILE`" % (
                                     args.id, _IN_UPDATE_MODE, args.id))
@@ -242,7 +247,7 @@ def cmd_set(bus, args):
             except IdTaken as e:
                 raise IdTaken("%s (or add --force)" % e) from None
     waits = []
-    done = bus.write_many(args.id, values)
+    done = _write_clearing(bus, args.id, values)
     assert len(done) == len(runs)
     waits.append(bus.commit_wait)
     confirmed = bus.confirmed
@@ -254,8 +259,9 @@ def cmd_set(bus, args):
             if held != value:
                 text += " (the servo holds %s: clamped to its angle limits)" % r.format(
                     held, resolution or 10)
-        print("%s: written%s" % (text, "" if confirmed else " (not confirmed: ID %d "
-                                 "answers only PING at status return level 0)" % new_id))
+        print("%s: written%s" % (text, "" if confirmed else " (not confirmed: at status "
+                                 "return level %d ID %d does not answer writes)" % (
+                                     bus._levels.get(new_id, 0), new_id)))
     if new_id != args.id:
         print("ID %d is now ID %d" % (args.id, new_id))
     if "baud_rate" in values:
@@ -269,6 +275,26 @@ def cmd_set(bus, args):
                 new_id, baud, baud))
     _commit_note(new_id, [w for w in waits if w])
     return 0
+
+
+def _write_clearing(bus, servo_id, values):
+    """write_many(); a clear_unload refused while the fault bit is still live is tried
+    again for a while: the servo needs about 0.5 s to see a cause gone (a temperature
+    limit just raised, src/safety.c)."""
+    deadline = time.monotonic() + 2.0
+    while True:
+        try:
+            return bus.write_many(servo_id, values)
+        except InstructionError as e:
+            if "clear_unload" not in values or not e.err & P.ERR_FAULTS or \
+                    time.monotonic() > deadline:
+                if "clear_unload" in values and e.err & P.ERR_FAULTS:
+                    raise InstructionError(
+                        servo_id, e.err, e.what, "the cause (%s) is still there: clear "
+                        "the unload once it has gone" % ", ".join(
+                            P.describe_err(e.err & P.ERR_FAULTS))) from None
+                raise
+            time.sleep(0.1)
 
 
 def _commit_note(servo_id, waits):
@@ -427,8 +453,8 @@ def cmd_reset(bus, args):
     try:
         bus.reset(args.id, check_free=not args.force)
     except IdTaken as e:
-        raise IdTaken("reset would move ID %d to ID 1, and %s (or add --force)" % (
-            args.id, str(e)[0].lower() + str(e)[1:])) from None
+        raise IdTaken("reset would move ID %d to ID 1: %s (or add --force)" % (
+            args.id, e)) from None
     print("ID %d: reset to factory values; it now answers at ID 1 and its default baud" %
           args.id)
     _commit_note(1, [bus.commit_wait] if bus.commit_wait else [])
@@ -691,9 +717,15 @@ def _interrupted(bus, args):
 def _fault_note(bus, args):
     """Live fault bits seen in answers: the command went through, but say so (a latched
     protection unload refuses motion until cleared)."""
-    if args.command in ("ping", "scan", "monitor"):
+    if args.command in ("ping", "scan", "monitor") or not bus.faults:
         return
-    for servo_id, err in sorted(bus.faults.items()):
+    for servo_id in sorted(bus.faults):
+        try:
+            err = bus.ping(servo_id) & P.ERR_FAULTS  # live now, after the command?
+        except ServoBusError:
+            continue
+        if not err:
+            continue
         _note("ID %d reports %s: a protection unload stays latched (torque off, motion "
               "refused) until the cause is gone and `servoctl --id %d set clear_unload 1`"
               % (servo_id, ", ".join(P.describe_err(err & P.ERR_FAULTS)), servo_id))

@@ -312,11 +312,11 @@ class Control:
             raise RangeError("ID %r is out of range 0..253" % (new_id,))
         if new_id == servo_id:
             return
-        self.ping(servo_id)  # the servo to change must be there
         if check_duplicate and self.duplicate(servo_id):
             raise DuplicateId(
                 "two servos answer at ID %d: a new ID would go to both (see \"Two servos "
                 "on one ID\" in tools/python/README.md)" % servo_id)
+        self.ping(servo_id)  # the servo to change must be there
         if check_free:
             self._check_free(new_id)
         self.write(servo_id, "id", new_id, check_variant=False)
@@ -358,6 +358,9 @@ class Control:
             saved, self.timeout = self.timeout, None
             try:
                 if self.read_raw(1, 16, 1)[0] == 2:
+                    return True
+            except ProtocolError:  # garbled at ID 1: it landed on another servo there
+                if servo_id != 1 and not self.present(servo_id):
                     return True
             except ServoBusError:
                 pass

@@ -6,6 +6,7 @@ import signal
 import socket
 import subprocess
 import sys
+import tempfile
 import time
 
 import pytest
@@ -16,6 +17,10 @@ REPO = os.path.dirname(os.path.dirname(PYROOT))
 SIM = os.environ.get("SERVO_SIM") or os.path.join(REPO, "build", "host", "servo-sim")
 
 sys.path.insert(0, PYROOT)
+# servoctl keeps its flash commit estimate (servobus/budget.py) in a state file: the
+# tests' own, fresh for every run, never the user's.
+os.environ["SERVOBUS_STATE"] = os.path.join(tempfile.mkdtemp(prefix="servobus-test-"),
+                                            "commit-budget.json")
 
 
 def free_port():
