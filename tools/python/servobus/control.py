@@ -15,6 +15,8 @@ _WRITE_HINT = ("a value out of range, a read-only, reserved or not-applicable re
 # Registers whose read-back differs from what was written by design: the goal is clamped
 # to the limits, clear_unload reads 0, homing reports its state in the high nibble.
 _NO_READBACK = ("goal_position", "clear_unload", "homing")
+# Seconds a RESET that was not answered is given to show up at ID 1.
+RESET_SETTLE_S = 1.0
 
 
 def _all_variants(r):
@@ -353,7 +355,7 @@ class Control:
     def _reset_took(self, servo_id):
         """After a RESET that was not answered: does a servo at factory settings answer
         at ID 1 (level 2 again: it answers READ)?"""
-        deadline = time.monotonic() + 1.0
+        deadline = time.monotonic() + RESET_SETTLE_S
         while True:
             saved, self.timeout = self.timeout, None
             try:
