@@ -1,10 +1,12 @@
 """The Bus: one host on one servo bus (a serial port or servo-sim over TCP).
 
-Bus is composed by concern: Link (transport, transactions, discovery: link.py), Control
-(the control table: control.py), Motion (motion.py) and Update (firmware update, §10:
-update.py). Everything is reached as a method of Bus."""
+Bus is composed by concern: Link (transport and transactions: link.py), Discovery (scan,
+two servos on one ID, update mode: discovery.py), Control (the control table:
+control.py), Motion (motion.py) and Update (firmware update, §10: update.py).
+Everything is reached as a method of Bus."""
 
 from .control import Control
+from .discovery import Discovery
 from .link import Found, Link
 from .motion import HOMING_STATES, HomingStatus, Motion
 from .update import RESTART_TIMEOUT_S, UPDATE_WORK_S, Update, UpdateStats
@@ -13,7 +15,7 @@ __all__ = ["Bus", "Found", "HomingStatus", "UpdateStats", "HOMING_STATES",
            "RESTART_TIMEOUT_S", "UPDATE_WORK_S"]
 
 
-class Bus(Update, Motion, Control, Link):
+class Bus(Update, Motion, Control, Discovery, Link):
     """A servo bus.
 
     Bus('tcp://127.0.0.1:4242') talks to servo-sim; Bus('/dev/ttyUSB0', baud=115200) to
