@@ -190,6 +190,15 @@ def cmd_get(bus, args):
     return 0
 
 
+def _new_baud(bus, servo_id, code):
+    """The baud a register 4 code gives this servo (code 0: its variant's default)."""
+    try:
+        variant = bus.variant(servo_id)
+    except ServoBusError:
+        variant = None
+    return baud_of_code(code, variant)
+
+
 def _lockout_checks(bus, args, values):
     """Settings after which servoctl could no longer reach the servo as it is called
     now: refused without --force (usage error), with the way back in the message."""
@@ -208,11 +217,7 @@ def _lockout_checks(bus, args, values):
                 "and `set clear_unload 1` written; add --force to write it" % (
                     values["temperature_limit"], sid, now))
     if "baud_rate" in values:
-        try:
-            variant = bus.variant(sid)
-        except ServoBusError:
-            variant = None
-        baud = baud_of_code(values["baud_rate"], variant)
+        baud = _new_baud(bus, sid, values["baud_rate"])
         if baud != bus.baud:
             raise _UsageError(
                 "baud_rate %d: ID %d would then answer at %d baud only, and servoctl talks "
@@ -265,11 +270,7 @@ def cmd_set(bus, args):
     if new_id != args.id:
         print("ID %d is now ID %d" % (args.id, new_id))
     if "baud_rate" in values:
-        try:
-            variant = bus.variant(new_id)
-        except ServoBusError:
-            variant = None
-        baud = baud_of_code(values["baud_rate"], variant)
+        baud = _new_baud(bus, new_id, values["baud_rate"])
         if baud != bus.baud:
             _note("ID %d now answers at %d baud: add --baud %d to later commands" % (
                 new_id, baud, baud))
