@@ -155,7 +155,7 @@ def cmd_ping(bus, args):
                                 "update FILE`" % (args.id, _IN_UPDATE_MODE, args.id)) \
                 from None
         raise
-    if bus.duplicate(args.id, tries=1) and bus.duplicate(args.id, tries=1):
+    if bus.duplicate(args.id):
         raise ServoBusError("two servos answer at ID %d (two answers to one PING, or "
                             "answers garbled by each other): see \"Two servos on one ID\" "
                             "in tools/python/README.md" % args.id)
