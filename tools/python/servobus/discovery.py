@@ -33,14 +33,23 @@ class Discovery:
 
     def duplicate(self, servo_id, tries=2):
         """True if two (or more) servos answer at servo_id: two intact answers to one
-        PING (different return delays), or answers garbled by their collision — seen at
-        each of `tries` PINGs, so that a burst of noise is not taken for a collision."""
-        ping = P.instruction(servo_id, P.PING)
-        for _ in range(tries):
-            answers, garbled = self.listen(servo_id, ping, answer_shape(P.PING))
-            if len(answers) < 2 and not garbled:
-                return False
-        return True
+        request (different return delays), or answers garbled by their collision — seen
+        at each of `tries` requests in a row, so that a burst of noise is not taken for a
+        collision. Two requests are tried: PING, and a READ of the present registers
+        (36-41: position, speed, turned angle). Two servos give the same PING answer, and
+        on a real bus two identical answers sent at the same instant can reach the host
+        as one; their positions differ, so their READ answers do not."""
+        probes = [(P.instruction(servo_id, P.PING), answer_shape(P.PING))]
+        read = bytes([36, 6])
+        probes.append((P.instruction(servo_id, P.READ, read), answer_shape(P.READ, read)))
+        for frame, shape in probes:
+            for i in range(tries):
+                answers, garbled = self.listen(servo_id, frame, shape)
+                if len(answers) < 2 and not garbled:
+                    break
+            else:
+                return True
+        return False
 
     def in_update_mode(self, servo_id):
         """True if servo_id answers the §10 enter frame with `D5 5D ID 03 00 43` although
