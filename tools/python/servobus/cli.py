@@ -237,7 +237,7 @@ def cmd_set(bus, args):
         if r.name in values:
             raise RangeError("%s is given twice" % r.name)
         values[r.name] = r.parse(text, resolution or 10)
-    runs = bus.plan_write(args.id, values)  # range, variant, CW <= CCW
+    bus.plan_write(args.id, values)  # range, variant, CW <= CCW: before anything is sent
     if not args.force:
         _lockout_checks(bus, args, values)
     new_id = values.get("id", args.id)
@@ -248,14 +248,11 @@ def cmd_set(bus, args):
                                 % args.id)
         if not args.force:
             try:
-                bus._check_free(new_id)
+                bus.refuse_taken(new_id)
             except IdTaken as e:
                 raise IdTaken("%s (or add --force)" % e) from None
-    waits = []
-    done = _write_clearing(bus, args.id, values)
-    assert len(done) == len(runs)
-    waits.append(bus.commit_wait)
-    confirmed = bus.confirmed
+    _write_clearing(bus, args.id, values)
+    wait, confirmed = bus.commit_wait, bus.confirmed
     for name, value in values.items():
         r = REGISTERS[name]
         text = _show(r, value, resolution or 10)
@@ -266,7 +263,7 @@ def cmd_set(bus, args):
                     held, resolution or 10)
         print("%s: written%s" % (text, "" if confirmed else " (not confirmed: at status "
                                  "return level %d ID %d does not answer writes)" % (
-                                     bus._levels.get(new_id, 0), new_id)))
+                                     bus.known_level(new_id), new_id)))
     if new_id != args.id:
         print("ID %d is now ID %d" % (args.id, new_id))
     if "baud_rate" in values:
@@ -274,7 +271,7 @@ def cmd_set(bus, args):
         if baud != bus.baud:
             _note("ID %d now answers at %d baud: add --baud %d to later commands" % (
                 new_id, baud, baud))
-    _commit_note(new_id, [w for w in waits if w])
+    _commit_note(new_id, [wait] if wait else [])
     return 0
 
 

@@ -174,7 +174,8 @@ class Control:
         servo's variant, and CW limit <= CCW limit with the values being written (the
         other limit read from the servo if only one is written). Returns the WRITEs to
         send: [(address, {register name: value})], one per contiguous run of registers
-        (a single WRITE when they are contiguous). RangeError, nothing sent."""
+        (a single WRITE when they are contiguous; the run with a new ID or baud last).
+        RangeError, nothing sent."""
         named = {}
         for k, v in dict(regs_values).items():
             r = register(k)
@@ -208,6 +209,9 @@ class Control:
                 runs[-1][2] = r.address + r.size
             else:
                 runs.append([r.address, {n: named[n]}, r.address + r.size])
+        # The run that moves the servo (a new ID or baud) goes last: the others still
+        # reach it where it is.
+        runs.sort(key=lambda run: "id" in run[1] or "baud_rate" in run[1])
         return [(a, rv) for a, rv, _ in runs]
 
     def write_many(self, servo_id, regs_values):
@@ -217,6 +221,7 @@ class Control:
         written back to the values read before (best effort) and the refusal raised.
         Returns the runs written."""
         runs = self.plan_write(servo_id, regs_values)
+        waits, confirmed = [], True
         before = []
         if len(runs) > 1:
             for _, rv in runs:
@@ -226,6 +231,8 @@ class Control:
             try:
                 self._unchanged = self._same_eeprom(servo_id, rv)
                 self.write(servo_id, rv, check_variant=False)
+                waits.append(self.commit_wait)
+                confirmed = confirmed and self.confirmed
             except ServoBusError:
                 for j in range(i):
                     if before[j]:
@@ -236,6 +243,9 @@ class Control:
                 raise
             finally:
                 self._unchanged = False
+        known = [w for w in waits if w is not None]
+        self.commit_wait = max(known) if known else None  # the longest of the WRITEs
+        self.confirmed = confirmed
         return runs
 
     def _same_eeprom(self, servo_id, rv):
@@ -320,12 +330,14 @@ class Control:
                 "on one ID\" in tools/python/README.md)" % servo_id)
         self.ping(servo_id)  # the servo to change must be there
         if check_free:
-            self._check_free(new_id)
+            self.refuse_taken(new_id)
         self.write(servo_id, "id", new_id, check_variant=False)
         self._variants.pop(servo_id, None)
 
-    def _check_free(self, new_id):
-        if self.present(new_id, timeout=self.full_answer_time()):
+    def refuse_taken(self, new_id):
+        """IdTaken if a servo answers a PING at new_id: two PINGs with the full time-out,
+        so that one lost or late answer does not make a taken ID look free."""
+        if any(self.present(new_id, timeout=self.full_answer_time()) for _ in range(2)):
             raise IdTaken("ID %d is already taken on the bus (a servo answered a PING "
                           "there); choose another ID or move that servo first" % new_id)
 
@@ -336,7 +348,7 @@ class Control:
         ID 1 afterwards."""
         check_id(servo_id)
         if check_free and servo_id != 1:
-            self._check_free(1)
+            self.refuse_taken(1)
         try:
             pkt = self.transact(servo_id, P.RESET, what="RESET")
         except BusTimeout:

@@ -257,6 +257,11 @@ class Link:
                 err & P.ERR_FAULTS and self.raise_faults):
             raise status_error(servo_id, err, what, hint, params, motion)
 
+    def known_level(self, servo_id):
+        """The status return level this Bus has found for servo_id (2 until it has seen
+        the servo keep silent)."""
+        return self._levels.get(servo_id, 2)
+
     def status_return_level(self, servo_id):
         """Register 16 of a servo, found even at level 0 (where only PING is answered):
         READ it; if that is not answered but PING is, the level is 0. BusTimeout if the

@@ -147,6 +147,9 @@ def test_generic_set_id_and_reset_refuse_a_taken_id(sim_factory):
     assert "reset would move ID 3 to ID 1: ID 1 is already taken" in one_line(err)
     assert "ID 3 is now ID 4" in ok(*port, "--id", "3", "set", "id", "4")
     assert "present" in ok(*port, "--id", "4", "ping")
+    # an ID and a register that is not next to it: the register first, then the ID
+    assert "ID 4 is now ID 5" in ok(*port, "--id", "4", "set", "acceleration", "20", "id", "5")
+    assert ok(*port, "--id", "5", "get", "acceleration", "--raw").strip() == "20"
 
 
 @pytest.mark.parametrize("delay", [16, 150])  # the same return delay: garbled; else two
