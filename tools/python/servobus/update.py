@@ -87,7 +87,9 @@ class Update:
         self.update_mode = False
         expect_version = None
         info = I.validate(image) if check else None
-        if self.present(servo_id, timeout=self.full_answer_time()):
+        # Two PINGs with the full time-out: one lost answer does not skip the model check
+        # (a late answer is drained before the next request, never taken for it).
+        if any(self.present(servo_id, timeout=self.full_answer_time()) for _ in range(2)):
             if check:
                 try:
                     saved, self.timeout = self.timeout, None
