@@ -228,27 +228,47 @@ class Link:
         except BusTimeout as e:
             if ins == P.READ and self._levels.get(servo_id) != 1 and \
                     self.present(servo_id, timeout=self.full_answer_time()):
-                self._levels[servo_id] = 0
-                raise BusTimeout(
-                    "ID %d answers PING but not %s: its status return level (register 16) "
-                    "is 0 — `servoctl --id %d set status_return_level 2` (bus.write(%d, "
-                    "'status_return_level', 2)) makes it answer again" % (
-                        servo_id, what, servo_id, servo_id), servo_id) from None
-            if ins in (P.PING, P.READ):
+                pkt = self._read_again(servo_id, params, nbytes, what)
+            elif ins in (P.PING, P.READ):
                 raise
-            try:  # a servo that answers PING but not this: register 16 keeps it silent
-                level = self.status_return_level(servo_id)
-            except BusTimeout:
-                raise e from None
-            if level >= 2:
-                raise
-            self.confirmed = False
-            return None
+            else:
+                return self._unanswered(servo_id, e)
+        if ins == P.READ and self._levels.get(servo_id) == 0:
+            del self._levels[servo_id]  # it answers READ: not level 0 (any more)
         err = pkt.ping_err() if ins == P.PING else pkt.err
         self.last_err = err
         self._check(servo_id, err, what, hint or (_MOTION_HINT if motion else ""),
                     pkt.params, motion)
         return pkt
+
+    def _read_again(self, servo_id, params, nbytes, what):
+        """A READ not answered by a servo that answers PING: one answer lost or late, or
+        status return level 0. Once more; silent again, it is level 0 (BusTimeout)."""
+        sent = self.send(servo_id, P.READ, params)
+        saved, self.timeout = self.timeout, None
+        try:
+            return self.receive(servo_id, sent, nbytes, what, answer_shape(P.READ, params))
+        except BusTimeout:
+            self._levels[servo_id] = 0
+            raise BusTimeout(
+                "ID %d answers PING but not %s: its status return level (register 16) is "
+                "0 — `servoctl --id %d set status_return_level 2` (bus.write(%d, "
+                "'status_return_level', 2)) makes it answer again" % (
+                    servo_id, what, servo_id, servo_id), servo_id) from None
+        finally:
+            self.timeout = saved
+
+    def _unanswered(self, servo_id, e):
+        """An instruction other than PING and READ not answered (BusTimeout e): None if
+        register 16 keeps the servo silent (self.confirmed False), else e raised."""
+        try:  # a servo that answers PING but not this: register 16 keeps it silent
+            level = self.status_return_level(servo_id)
+        except BusTimeout:
+            raise e from None
+        if level >= 2:
+            raise e
+        self.confirmed = False
+        return None
 
     def _check(self, servo_id, err, what, hint, params, motion):
         if err & P.ERR_FAULTS:
