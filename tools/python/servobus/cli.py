@@ -117,13 +117,13 @@ def cmd_scan(bus, args):
                             "answer at ID %s: see \"Two servos on one ID\" in "
                             "tools/python/README.md" % ", ".join(map(str, bus.duplicates)))
     if not found:
-        print("no servo answered a broadcast PING at %s%s" % (
+        # Where cheap: one frame to the ID given (default 1) tells a servo in update mode.
+        if not bus.scan_notes and bus.in_update_mode(args.id):
+            raise ServoBusError("no servo answered a broadcast PING, but ID %d answers the "
+                                "update handshake: %s — send a good image: `servoctl --id "
+                                "%d update FILE`" % (args.id, _IN_UPDATE_MODE, args.id))
+        raise ServoBusError("no servo answered a broadcast PING at %s%s" % (
             bauds, "" if args.all_bauds else " (try --all-bauds)"))
-        if not bus.scan_notes and bus.in_update_mode(args.id):  # cheap: one frame to the ID given (default 1)
-            raise ServoBusError("ID %d answers the update handshake, not PING: %s — send "
-                                "a good image: `servoctl --id %d update FILE`" % (
-                                    args.id, _IN_UPDATE_MODE, args.id))
-        return 1
     print("%d servo%s found at %s:" % (len(found), "" if len(found) == 1 else "s", bauds))
     print("%4s  %-7s  %7s  %s" % ("ID", "variant", "baud", "status"))
     for f in found:

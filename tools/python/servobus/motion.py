@@ -135,7 +135,7 @@ class Motion:
                 raise ServoBusError(
                     "ID %d: homing not done after %.0f s (status: %s)%s" % (
                         servo_id, timeout, st.text,
-                        " — it never started (no photo switches on a foot or base)" if st.state == 0
-                        else ""))
+                        " — it never started (no photo switches on a foot or base)"
+                        if st.state == 0 else ""))
             time.sleep(poll)
 
