@@ -28,6 +28,8 @@ _MOTION_HINT = ("the servo cannot run this motion now — no homing reference ye
                 "it, or see register 49 move_without_reference), a latched protection "
                 "unload (write 1 to register 25 clear_unload), speed mode, or " +
                 SESSION_HINT)
+SLACK_S = 0.06
+TCP_SLACK_S = 0.14
 # Seconds a Bus(timeout=...) may be: more than 0, at most an hour.
 TIMEOUT_RANGE = (0.001, 3600.0)
 
@@ -130,7 +132,12 @@ class Link:
 
     def full_answer_time(self, nbytes=7):
         """The answer time-out computed from the baud rate, whatever Bus(timeout=)."""
-        return P.MAX_RETURN_DELAY_S + nbytes * P.byte_time(self.baud) + 0.06
+        return P.MAX_RETURN_DELAY_S + nbytes * P.byte_time(self.baud) + self.slack()
+
+    def slack(self):
+        """Seconds of slack in a time-out, for the OS and USB adapters; over tcp:// more:
+        the simulator shares the host's CPU, and a busy host delays its answers."""
+        return SLACK_S + (TCP_SLACK_S if self.is_tcp else 0.0)
 
     def _where(self):
         return "at %d baud%s" % (self.baud, " on %s" % self.port if self.is_tcp else "")

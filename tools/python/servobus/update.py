@@ -46,7 +46,7 @@ class Update:
         if self.timeout is not None:
             return self.timeout
         return (P.MAX_RETURN_DELAY_S + (frame_bytes + P.UPDATE_ANSWER_BYTES) *
-                P.byte_time(self.baud) + UPDATE_WORK_S + 0.06)
+                P.byte_time(self.baud) + UPDATE_WORK_S + self.slack())
 
     def update(self, servo_id, image, progress=None, retries=5, check=True,
                restart_timeout=RESTART_TIMEOUT_S, notify=None):

@@ -119,7 +119,7 @@ def short_bus_times():
 class WireOfBytes:
     """A transport whose wire carries the given chunks, whatever is sent."""
 
-    is_tcp = True
+    is_tcp = False  # the serial slack: shorter time-outs
 
     def __init__(self, chunks):
         self.chunks = list(chunks)
