@@ -153,7 +153,7 @@ class Link:
         """After a request that went unanswered, an answer to it may still arrive until
         the longest return delay and its bytes have passed."""
         self._quiet_at = max(self._quiet_at, time.monotonic() + P.MAX_RETURN_DELAY_S +
-                             (len(sent) + nbytes) * P.byte_time(self.baud) + 0.03)
+                             (len(sent) + nbytes) * P.byte_time(self.baud) + self.slack())
 
     def send(self, servo_id, ins, params=b""):
         """Put one instruction packet on the bus (stale input is drained first)."""
