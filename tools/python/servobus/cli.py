@@ -108,7 +108,7 @@ def _wait_still(bus, servo_id, timeout):
 # ---- commands -----------------------------------------------------------------------
 
 def cmd_scan(bus, args):
-    found = bus.scan(all_bauds=args.all_bauds)
+    found = bus.scan(all_bauds=args.all_bauds, check_duplicates=True)
     for note in bus.scan_notes:
         _note(note)
     bauds = "every baud" if args.all_bauds and not bus.is_tcp else "%d baud" % bus.baud

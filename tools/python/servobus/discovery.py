@@ -5,21 +5,27 @@ import time
 
 from . import protocol as P
 from .link import Found, answer_shape, check_id
-from .registers import BAUD_RATES
+from .registers import BAUD_RATES, TABLE_SIZE
 
 
 class Discovery:
     """Who is on the bus (a mixin of Bus: it uses Link's transport and transactions)."""
 
-    def listen(self, servo_id, frame, shape):
+    def listen(self, servo_id, frame, shape, nbytes=16):
         """Send a raw frame to servo_id and listen for the whole answer window (the
-        longest return delay): (intact answers from servo_id shaped as `shape` wants,
-        garbled: whether bytes arrived that are not such an answer)."""
+        longest return delay and an answer of nbytes): (intact answers from servo_id
+        shaped as `shape` wants, garbled: whether bytes arrived that are not such an
+        answer)."""
         check_id(servo_id)
+        # A second servo at the ID of the last request may still be answering it: wait
+        # its window out (a request sent into an answer would collide on the wire).
+        self._quiet_at = max(self._quiet_at,
+                             self._sent_at + self.full_answer_time(6 + TABLE_SIZE))
         self._drain()
         self._t.write(frame)
+        self._sent_at = time.monotonic()
         parser = P.StatusParser()
-        deadline = time.monotonic() + self.full_answer_time(16)
+        deadline = time.monotonic() + self.full_answer_time(nbytes)
         answers, garbled = [], False
         while time.monotonic() < deadline:
             for pkt in parser.feed(self._t.read(deadline)):
@@ -31,20 +37,23 @@ class Discovery:
                     garbled = True
         return answers, garbled or parser.skipped > 0 or parser.pending() > 0
 
-    def duplicate(self, servo_id, tries=2):
+    def duplicate(self, servo_id, tries=2, probes=("ping", "table")):
         """True if two (or more) servos answer at servo_id: two intact answers to one
         request (different return delays), or answers garbled by their collision — seen
         at each of `tries` requests in a row, so that a burst of noise is not taken for a
-        collision. Two requests are tried: PING, and a READ of the present registers
-        (36-41: position, speed, turned angle). Two servos give the same PING answer, and
-        on a real bus two identical answers sent at the same instant can reach the host
-        as one; their positions differ, so their READ answers do not."""
-        probes = [(P.instruction(servo_id, P.PING), answer_shape(P.PING))]
-        read = bytes([36, 6])
-        probes.append((P.instruction(servo_id, P.READ, read), answer_shape(P.READ, read)))
-        for frame, shape in probes:
+        collision. The probes: "ping" (PING) and "table" (a READ of the whole table).
+        Two servos give the same PING answer, and on a real bus two identical answers
+        sent at the same instant reach the host as one (the wire ANDs identical bits);
+        their tables (model, settings, position, temperature) seldom match to the byte.
+        Two servos identical to the byte cannot be told apart by any answer."""
+        table = bytes([0, TABLE_SIZE])
+        frames = {"ping": (P.instruction(servo_id, P.PING), answer_shape(P.PING), 7),
+                  "table": (P.instruction(servo_id, P.READ, table),
+                            answer_shape(P.READ, table), 6 + TABLE_SIZE)}
+        for probe in probes:
+            frame, shape, nbytes = frames[probe]
             for i in range(tries):
-                answers, garbled = self.listen(servo_id, frame, shape)
+                answers, garbled = self.listen(servo_id, frame, shape, nbytes)
                 if len(answers) < 2 and not garbled:
                     break
             else:
@@ -67,12 +76,15 @@ class Discovery:
         return (P.MAX_RETURN_DELAY_S + (P.ID_MAX + 1) * P.SLOT_BYTES * P.byte_time(baud) +
                 7 * P.byte_time(baud) + 0.06)
 
-    def scan(self, all_bauds=False):
+    def scan(self, all_bauds=False, check_duplicates=False):
         """Broadcast PING (ID-slotted answers, §4.1) at the bus baud, or at every baud of
         §5.2 with all_bauds. Returns a list of Found(id, baud, err) sorted by ID. Over
         tcp:// the simulator hears every baud, so all_bauds scans once (harmless).
         Two servos on one ID: two answers in one slot, or a garbled slot, confirmed by
-        duplicate(); their IDs are in self.duplicates and scan_notes says so."""
+        duplicate(); their IDs are in self.duplicates and scan_notes says so. Two
+        servos whose PING answers coincide exactly reach the host as one answer: with
+        check_duplicates, each ID found is also checked with a READ of its table (one
+        answer window per servo: about 0.2 s at 9600 baud, 0.4 s over tcp://)."""
         self.scan_notes = []
         self.duplicates = []
         bauds = [self.baud]
@@ -89,6 +101,15 @@ class Discovery:
                     self.set_baud(baud)
                 for f in self._scan_once(found):
                     found.setdefault(f.id, f)
+            if check_duplicates:
+                for f in sorted(found.values()):
+                    if f.id in self.duplicates:
+                        continue
+                    if f.baud != self.baud:
+                        self.set_baud(f.baud)
+                    if self.duplicate(f.id, probes=("table",)):
+                        self._note_duplicate(f.id, "their answers to a READ garble "
+                                             "each other")
         finally:
             if self.baud != start_baud:
                 self.set_baud(start_baud)

@@ -88,6 +88,7 @@ class Link:
         self._variants = {}
         self._levels = {}  # ID -> status return level (register 16) once found below 2
         self._quiet_at = 0.0  # a late answer may arrive until then: drain before sending
+        self._sent_at = 0.0  # when the last request went out
         self.update_stats = None  # UpdateStats of the last update()
         self.update_step = None  # the §10 step under way (what an interrupt cuts short)
         self.update_mode = False  # the last update() found the servo in update mode
@@ -135,9 +136,11 @@ class Link:
         return P.MAX_RETURN_DELAY_S + nbytes * P.byte_time(self.baud) + self.slack()
 
     def slack(self):
-        """Seconds of slack in a time-out, for the OS and USB adapters; over tcp:// more:
-        the simulator shares the host's CPU, and a busy host delays its answers."""
-        return SLACK_S + (TCP_SLACK_S if self.is_tcp else 0.0)
+        """Seconds of slack in a time-out, for the OS and USB adapters; over a network
+        port (tcp://, rfc2217://) more: servo-sim shares the host's CPU, and a busy
+        host delays its answers."""
+        shared = self.is_tcp or getattr(self._t, "remote", False)  # rfc2217:// too
+        return SLACK_S + (TCP_SLACK_S if shared else 0.0)
 
     def _where(self):
         return "at %d baud%s" % (self.baud, " on %s" % self.port if self.is_tcp else "")
@@ -164,6 +167,7 @@ class Link:
             raise RangeError(str(e)) from None
         self._drain()
         self._t.write(pkt)
+        self._sent_at = time.monotonic()
         return pkt
 
     def receive(self, servo_id, sent, nbytes, what, shape=None):
