@@ -15,7 +15,8 @@ class Discovery:
         """Send a raw frame to servo_id and listen for the whole answer window (the
         longest return delay and an answer of nbytes): (intact answers from servo_id
         shaped as `shape` wants, garbled: whether bytes arrived that are not such an
-        answer)."""
+        answer). Intact packets of another shape are left out: they answer something
+        else."""
         check_id(servo_id)
         # A second servo at the ID of the last request may still be answering it: wait
         # its window out (a request sent into an answer would collide on the wire).
@@ -29,12 +30,12 @@ class Discovery:
         answers, garbled = [], False
         while time.monotonic() < deadline:
             for pkt in parser.feed(self._t.read(deadline)):
-                if pkt.raw == frame:
-                    continue
-                if pkt.ok and pkt.id == servo_id and shape(pkt):
-                    answers.append(pkt)
-                else:
+                if not pkt.ok:
                     garbled = True
+                elif pkt.raw != frame and pkt.id == servo_id and shape(pkt):
+                    answers.append(pkt)
+                # other intact packets answer something else (a servo that heard another
+                # one's status packet as a request): not an answer to this frame
         return answers, garbled or parser.skipped > 0 or parser.pending() > 0
 
     def duplicate(self, servo_id, tries=2, probes=("ping", "table")):
@@ -49,7 +50,7 @@ class Discovery:
         table = bytes([0, TABLE_SIZE])
         frames = {"ping": (P.instruction(servo_id, P.PING), answer_shape(P.PING), 7),
                   "table": (P.instruction(servo_id, P.READ, table),
-                            answer_shape(P.READ, table), 6 + TABLE_SIZE)}
+                            lambda pkt: len(pkt.params) == TABLE_SIZE, 6 + TABLE_SIZE)}
         for probe in probes:
             frame, shape, nbytes = frames[probe]
             for i in range(tries):
@@ -128,9 +129,11 @@ class Discovery:
             for pkt in parser.feed(data):
                 if pkt.raw == sent:
                     continue
-                if not pkt.ok or len(pkt.params) != 1 or pkt.err != 0x01:
+                if not pkt.ok:
                     garbled_at.append(time.monotonic() - t0)
                     continue
+                if len(pkt.params) != 1 or pkt.err != 0x01:
+                    continue  # intact, but not a PING answer: it answers something else
                 if pkt.id in seen:  # a second answer in one ID's slot
                     self._note_duplicate(pkt.id, "two answers at ID %d" % pkt.id)
                     continue
