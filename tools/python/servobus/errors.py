@@ -35,6 +35,15 @@ class IdTaken(ServoBusError):
     """set_id() refused: another servo already answers at the new ID."""
 
 
+class DuplicateId(ServoBusError):
+    """Two (or more) servos answer at one ID: anything sent to it reaches both."""
+
+
+class NotApplied(ServoBusError):
+    """A servo that does not answer writes (status return level 0 or 1) did not take
+    one: reading back showed the old value."""
+
+
 class StatusError(ServoBusError):
     """A status packet whose ERR byte reports a problem.
 

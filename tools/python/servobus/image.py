@@ -18,6 +18,8 @@ import random
 import struct
 import zlib
 
+from .errors import ServoBusError
+
 INFO_OFFSET = 0x100
 INFO_BYTES = 16
 MAGIC = b"SRVI"
@@ -37,7 +39,7 @@ MODELS = {"base": 0x5201, "foot": 0x5202, "arm": 0x5203, "wrist": 0x5204,
           "finger": 0x5205}
 
 
-class ImageError(ValueError):
+class ImageError(ServoBusError, ValueError):
     """A file that is not a valid firmware image; the message says what is wrong."""
 
 

@@ -96,7 +96,10 @@ class StatusPacket:
 
 
 class StatusParser:
-    """Cuts a byte stream into status packets, resynchronising on `D5 5D`."""
+    """Cuts a byte stream into packets, resynchronising on `D5 5D`. Status packets, and
+    (for tests and tools) instruction packets too: they share the format; a §10 data
+    block (LEN 0xFF, `FF FE 02`) is 1031 bytes after LEN. A status packet's ERR byte
+    never has bit 7 set, so it never looks like one."""
 
     def __init__(self):
         self.buf = bytearray()
@@ -124,6 +127,11 @@ class StatusParser:
                 del self.buf[:2]
                 continue
             total = 4 + length
+            if length == 0xFF and len(self.buf) >= 7 and \
+                    bytes(self.buf[4:7]) == bytes([CUSTOM, UPDATE_BLOCK, UPDATE_DATA]):
+                total = 4 + UPDATE_DATA_FRAME + 1  # §10: its LEN cannot say 1031
+            elif length == 0xFF and len(self.buf) < 7:
+                return out
             if len(self.buf) < total:
                 return out
             pkt = StatusPacket(self.buf[:total])
@@ -163,6 +171,7 @@ CAN = 0x18
 READY = 0x43  # 'C'
 UPDATE_HEADER_DATA = 128
 UPDATE_BLOCK_DATA = 1024
+UPDATE_DATA_FRAME = 1031  # bytes after LEN in a data block frame, before the checksum
 # Answers: enter 'C' (LEN 3), header and end of file ACK 'C' (LEN 4), data block and end
 # of batch ACK (LEN 3); NAK or CAN in place of the first byte (LEN 3).
 UPDATE_ANSWER_BYTES = 8

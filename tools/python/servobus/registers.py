@@ -3,6 +3,7 @@ generated from src/regs.c by `regdoc --json` (a CTest checks the copy). Units, r
 variants and conversions between raw values and physical ones."""
 
 import json
+import math
 import os
 import re
 
@@ -173,6 +174,8 @@ class Register:
                     self.name, m.group(2),
                     "give a plain number" if factor is None else "use %s or a plain "
                     "number of %s" % (want, UNIT_TEXT[self.unit])))
+            if not math.isfinite(number / factor):
+                raise RangeError("%s: '%s' is out of range" % (self.name, text))
             value = round(number / factor)
         elif value is None:
             raise RangeError("%s: '%s' is not a number" % (self.name, text))

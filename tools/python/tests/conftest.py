@@ -6,9 +6,11 @@ import signal
 import socket
 import subprocess
 import sys
+import tempfile
 import time
 
 import pytest
+from hypothesis import settings
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 PYROOT = os.path.dirname(HERE)  # tools/python
@@ -16,6 +18,14 @@ REPO = os.path.dirname(os.path.dirname(PYROOT))
 SIM = os.environ.get("SERVO_SIM") or os.path.join(REPO, "build", "host", "servo-sim")
 
 sys.path.insert(0, PYROOT)
+# servoctl keeps its flash commit estimate (servobus/budget.py) in a state file: the
+# tests' own, fresh for every run, never the user's. Hypothesis keeps no example database
+# and its caches there too: nothing is written into the source tree.
+_SCRATCH = tempfile.mkdtemp(prefix="servobus-test-")
+os.environ["SERVOBUS_STATE"] = os.path.join(_SCRATCH, "commit-budget.json")
+os.environ["HYPOTHESIS_STORAGE_DIRECTORY"] = os.path.join(_SCRATCH, "hypothesis")
+settings.register_profile("servobus", database=None)
+settings.load_profile("servobus")
 
 
 def free_port():

@@ -54,11 +54,11 @@ def test_get_set_with_ranges(shared_sim):
     assert "return_delay = 10 (5 ms): written" in ok(*port, "set", "return_delay", "5ms")
     assert ok(*port, "get", "return_delay", "--raw").strip() == "10"
     ok(*port, "set", "5", "16")  # by address
-    err = fails(1, *port, "set", "return_delay", "256")
+    err = fails(2, *port, "set", "return_delay", "256")
     assert "return_delay: 256 is out of range 0..255" in err
-    err = fails(1, *port, "set", "base_acceleration", "1")
+    err = fails(2, *port, "set", "base_acceleration", "1")
     assert "does not exist on the foot" in err
-    err = fails(1, *port, "set", "acceleration")
+    err = fails(2, *port, "set", "acceleration")
     assert "has no value" in err
     assert ok(*port, "get", "return_delay", "--raw").strip() == "16"
 
@@ -81,7 +81,7 @@ def test_dump_names_every_register(shared_sim):
 
 
 def test_set_id_refuses_a_taken_id(shared_sim):
-    err = fails(1, "--port", shared_sim.url, "--id", "1", "set-id", "7")
+    err = fails(2, "--port", shared_sim.url, "--id", "1", "set-id", "7")
     assert "ID 7 is already taken on the bus" in err
     assert "ID 200 is now ID 201" in ok("--port", shared_sim.url, "--id", "200", "set-id", "201")
     ok("--port", shared_sim.url, "--id", "201", "set-id", "200")
@@ -90,7 +90,7 @@ def test_set_id_refuses_a_taken_id(shared_sim):
 def test_traj_and_move(shared_sim):
     port = ["--port", shared_sim.url, "--id", "2"]
     assert "2 trajectory points stored" in ok(*port, "traj", "10:90", "0:90", "--no-run")
-    err = fails(1, *port, "traj", "10:0")
+    err = fails(2, *port, "traj", "10:0")
     assert "speed 0" in err
     assert "goal 0 (0 deg), speed 90 (90 deg/s)" in ok(*port, "move", "0", "--speed", "90")
     out = ok(*port, "traj", "20:360", "0:360", "--wait")
@@ -127,7 +127,7 @@ def test_monitor_plot_without_matplotlib(shared_sim, tmp_path):
 
 def test_reset_needs_yes(sim_factory):
     sim = sim_factory("4:finger")
-    err = fails(1, "--port", sim.url, "--id", "4", "reset")
+    err = fails(2, "--port", sim.url, "--id", "4", "reset")
     assert "add --yes" in err
     assert "reset to factory values" in ok("--port", sim.url, "--id", "4", "reset", "--yes")
 

@@ -390,9 +390,14 @@ def test_a_servo_in_its_bootloader_is_updated_with_a_note(fake):
         notes = []
         with pytest.raises(UpdateError) as e:  # it never answers PING afterwards either
             bus.update(1, I.build(3000, 9, ARM), notify=notes.append, restart_timeout=0.5)
-    assert e.value.step == "restart" and "does not answer PING" in str(e.value)
-    assert len(notes) == 1 and "bootloader" in notes[0]
-    assert servo.seen[-1] == "end of batch"
+    # it stays in update mode after the image: what a servo whose new image does not
+    # confirm itself (3 unconfirmed starts) looks like to the host
+    assert e.value.step == "restart" and bus.update_mode
+    assert "does not start it: it waits in its bootloader's update mode" in str(e.value)
+    assert "send a good image" in str(e.value)
+    assert len(notes) == 1 and "answers the update handshake" in notes[0]
+    assert "bootloader" in notes[0]
+    assert servo.seen[-2:] == ["end of batch", "enter"]  # the image, then the probe
 
 
 # ---- servo-sim ----------------------------------------------------------------------
