@@ -45,10 +45,12 @@
 #define IMAGE_MARK_OFFSET (HAL_FLASH_PAGE_BYTES - 4u)
 #define IMAGE_MARK_SET 0x0000u
 
-/* Make flash page `page` hold the HAL_FLASH_PAGE_BYTES at data: erase, program every
- * half-word that is not 0xFFFF, read back. False on any failure. (An update block into
- * the staging slot, a staging page into the application slot at install.) */
-bool image_write_page(struct hal *hal, uint8_t page, const uint8_t *data);
+/* Make flash page `page` hold the n bytes at data (n even, at most HAL_FLASH_PAGE_BYTES)
+ * and erased bytes after them: erase, program every half-word that is not 0xFFFF, read
+ * back. False on any failure. (An update block into the staging slot: only the image's
+ * own bytes, never the block's padding, so no data block can write the install mark; a
+ * staging page into the application slot at install.) */
+bool image_write_page(struct hal *hal, uint8_t page, const uint8_t *data, uint16_t n);
 
 /* Is the install mark set? */
 bool image_marked(struct hal *hal);

@@ -9,7 +9,8 @@
 static bool copy_page(struct hal *hal, uint8_t page)
 {
     return image_write_page(hal, (uint8_t)(HAL_PAGE_APP + page),
-                            hal_flash_page(hal, (uint8_t)(HAL_PAGE_STAGING + page)));
+                            hal_flash_page(hal, (uint8_t)(HAL_PAGE_STAGING + page)),
+                            HAL_FLASH_PAGE_BYTES);
 }
 
 /* Do the slots hold the same first length bytes? */

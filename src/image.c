@@ -58,14 +58,14 @@ bool image_marked(struct hal *hal)
     return m[0] == 0u && m[1] == 0u;
 }
 
-bool image_write_page(struct hal *hal, uint8_t page, const uint8_t *data)
+bool image_write_page(struct hal *hal, uint8_t page, const uint8_t *data, uint16_t n)
 {
     if (!hal_flash_erase(hal, page))
         return false;
-    for (uint16_t off = 0; off < HAL_FLASH_PAGE_BYTES; off = (uint16_t)(off + 2u)) {
+    for (uint16_t off = 0; off < n; off = (uint16_t)(off + 2u)) {
         uint16_t v = (uint16_t)(data[off] | ((uint32_t)data[off + 1u] << 8));
         if (v != 0xFFFFu && !hal_flash_program(hal, page, off, v))
             return false;
     }
-    return memcmp(hal_flash_page(hal, page), data, HAL_FLASH_PAGE_BYTES) == 0;
+    return memcmp(hal_flash_page(hal, page), data, n) == 0;
 }

@@ -103,8 +103,15 @@ static uint8_t on_data(struct update *u, struct hal *hal, uint16_t model, uint8_
     bool ok = u->state == UPDATE_DATA && u->next <= u->blocks;
     if (ok && num == 1u) /* the info block: refuse another board's or a mislabelled image */
         ok = image_parse_info(d, &info) && info.model == model && info.length == u->length;
-    if (ok)
-        ok = image_write_page(hal, (uint8_t)(HAL_PAGE_STAGING + num - 1u), d);
+    if (ok) {
+        /* The image's bytes only: the padding of the last block stays erased, so it can
+         * never program the install mark at the end of the slot (a full-length image
+         * padded with zeros did, and an abandoned session was then installed). */
+        uint32_t left = u->length - (uint32_t)(num - 1u) * PROTO_UPDATE_BLOCK_DATA;
+        uint16_t n = left < PROTO_UPDATE_BLOCK_DATA ? (uint16_t)((left + 1u) & ~1u)
+                                                    : (uint16_t)PROTO_UPDATE_BLOCK_DATA;
+        ok = image_write_page(hal, (uint8_t)(HAL_PAGE_STAGING + num - 1u), d, n);
+    }
     if (!ok)
         return cancel(u, ans);
     u->next++;

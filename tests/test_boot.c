@@ -613,7 +613,8 @@ static void test_install_empties_record_through_cuts(void **state)
         memset(page, 0xFF, sizeof page);
         memcpy(page, &new_img[at],
                sizeof new_img - at < HAL_FLASH_PAGE_BYTES ? sizeof new_img - at : HAL_FLASH_PAGE_BYTES);
-        assert_true(image_write_page(&hal, (uint8_t)(HAL_PAGE_STAGING + p), page));
+        assert_true(image_write_page(&hal, (uint8_t)(HAL_PAGE_STAGING + p), page,
+                                     HAL_FLASH_PAGE_BYTES));
     }
     assert_true(hal_flash_program(&hal, IMAGE_MARK_PAGE, IMAGE_MARK_OFFSET, IMAGE_MARK_SET));
     memcpy(staged_flash, hal.flash.mem, sizeof staged_flash);

@@ -417,6 +417,27 @@ static void test_refuses_truncated(void **state)
     assert_old_firmware_runs();
 }
 
+/* A full-length image padded with zeros (as YMODEM senders may pad): its last data block
+ * covers the install mark's half-word. The padding is not written, so a session
+ * abandoned after that block installs nothing (fuzz_update found it installed). */
+static void test_padding_never_sets_the_install_mark(void **state)
+{
+    (void)state;
+    begin_session(IMAGE_MAX_BYTES, arm->model_number, 6, 11);
+    uint8_t d[PROTO_UPDATE_BLOCK_DATA];
+    for (uint8_t num = 1; num <= blocks_of(IMAGE_MAX_BYTES); num++) {
+        uint32_t at = (uint32_t)(num - 1u) * PROTO_UPDATE_BLOCK_DATA;
+        uint32_t n = IMAGE_MAX_BYTES - at < sizeof d ? IMAGE_MAX_BYTES - at : sizeof d;
+        memset(d, 0x00, sizeof d); /* zero padding */
+        memcpy(d, &img[at], n);
+        expect_answer(wire, block_frame(wire, 1, PROTO_UPDATE_TYPE_DATA, num, d), 1, ACK, 1);
+    }
+    assert_false(image_marked(&hal)); /* every block in, nothing verified yet */
+    step(UPDATE_TIMEOUT_US + 100000u); /* the host walks away */
+    assert_false(image_marked(&hal));
+    assert_old_firmware_runs(); /* and the power cycle in it installs nothing */
+}
+
 /* Other IDs and the broadcast ID never start a session or get an answer. */
 static void test_other_ids_ignored(void **state)
 {
@@ -685,6 +706,7 @@ int main(void)
         cmocka_unit_test(test_refuses_wrong_board),
         cmocka_unit_test(test_refuses_bad_crc),
         cmocka_unit_test(test_refuses_truncated),
+        cmocka_unit_test(test_padding_never_sets_the_install_mark),
         cmocka_unit_test(test_other_ids_ignored),
         cmocka_unit_test(test_motor_off_during_session),
         cmocka_unit_test(test_update_mode_when_application_damaged),
