@@ -152,7 +152,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             break;
         case 3: {
             uint8_t p = get8(&r) % HAL_FLASH_PAGES;
-            uint16_t off = (uint16_t)((get8(&r) | (get8(&r) << 8)) % HAL_FLASH_PAGE_BYTES);
+            uint16_t lo = get8(&r);
+            uint16_t off = (uint16_t)((lo | (uint16_t)(get8(&r) << 8)) % HAL_FLASH_PAGE_BYTES);
             hal.flash.mem[p][off] = get8(&r);
             break;
         }
