@@ -8,7 +8,10 @@
  * inputs per second); the fast targets (fuzz_frame, fuzz_store, fuzz_update,
  * fuzz_planner) cover the same surfaces without the real-time part.
  *
- * Input: byte 0 picks the board (base, foot, arm, wrist, finger), byte 1 the servo's ID
+ * Input: byte 0 picks the board (byte 0 % 5: base, foot, arm, wrist, finger) and the
+ * faults the servo's sensors see (byte 0 / 5, bits: 0-1 supply low, high or dropping
+ * low then high; 2 over-temperature; 3 a current spike; 4 the shaft jammed), present in
+ * every other half second of virtual time from the second one on; byte 1 the servo's ID
  * (0: factory ID 1). The rest is the wire, from the host:
  *   FF FF      one data byte FF
  *   FF FE      power cycle (reboot the servo; the flash survives)
@@ -53,6 +56,7 @@ const char fuzz_target_name[] = "fuzz_bus";
 static struct hal hal;
 static struct servo servo;
 static uint8_t factory[REGS_SIZE];
+static uint8_t faults;        /* byte 0 / 5 */
 static bool motion_commanded; /* invariant 3 */
 static bool speed0_window;    /* invariant 4 */
 
@@ -146,12 +150,28 @@ static void poll_once(void)
     check_all();
 }
 
+/* The sensors as the faults of the input have them now. */
+static void sense(void)
+{
+    bool on = ((hal.now_us / 500000u) & 1u) != 0u;
+    static const uint16_t supply[4] = {12000u, 8000u, 16000u, 8000u};
+    uint8_t v = faults & 3u;
+    if (v == 3u && (hal.now_us / 1000000u) & 1u)
+        v = 2u; /* dropping low, then high */
+    hal.supply_mv = on ? supply[v] : 12000u;
+    hal.temperature_dc = on && (faults & 4u) ? 900 : 250;
+    hal.current_extra_ma = on && (faults & 8u) ? 5000u : 0u;
+    hal.motor.blocked = on && (faults & 16u);
+}
+
 /* Advance virtual time to t, running the main loop every POLL_US. */
 static void run_until(uint32_t t)
 {
     while ((int32_t)(t - hal.now_us) > 0) {
         uint32_t step = t - hal.now_us;
         hal.now_us += step < POLL_US ? step : POLL_US;
+        if (faults)
+            sense();
         poll_once();
     }
 }
@@ -172,6 +192,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     if (size < 2u)
         return 0;
     const struct board *b = boards[data[0] % 5u];
+    faults = (uint8_t)(data[0] / 5u);
     hal_host_init(&hal);
     hal_host_attach_board(&hal, b);
     hal_host_program_factory(&hal, b);
