@@ -124,11 +124,26 @@ static bool poll_once(void)
     return dispatched || hal.sends != sends;
 }
 
-/* Main-loop passes until one finds nothing to do. */
+/* Would another pass now find something to do? A frame waiting while the link is free,
+ * an answer due, an answer sent. */
+static bool work_left(void)
+{
+    switch (servo.link.state) {
+    case LINK_IDLE:
+        return servo.rx.ready_tail != servo.rx.ready_head;
+    case LINK_WAITING:
+        return (int32_t)(hal.now_us - servo.link.due_us) >= 0 && !servo.rx.in_frame;
+    default:
+        return (int32_t)(hal.now_us - hal.tx_end_us) >= 0;
+    }
+}
+
+/* Main-loop passes until there is nothing left to do now. */
 static void poll_idle(void)
 {
-    while (poll_once())
-        ;
+    do
+        (void)poll_once();
+    while (work_left());
 }
 
 /* Advance virtual time to t, passing the main loop at every event of the servo on the
