@@ -9,7 +9,8 @@
  * input describes (own model or another, any length, CRC-32 right or not).
  *
  * Input: byte 0 picks the board; then operations, one byte o each, with operands
- * (missing bytes read as 0):
+ * (missing bytes read as 0); a frame goes straight to loader_update_frame, or if o & 0x80
+ * through the receiver (D5 5D first) to update mode's main loop (loader_poll):
  *   o % 10 = 0  ENTER f
  *            1  HEADER f [l0 l1 l2 l3]: the image's length, or (f & 4) the one given
  *            2  END OF BATCH f: the all-zero header
@@ -226,12 +227,28 @@ static void boot(void)
 }
 
 /* Send one update frame (buf, len) as arriving now; check the answer (invariant 3). */
+/* Deliver one update frame (buf, len) ending now: straight to loader_update_frame, or
+ * (via_rx) byte by byte through the receiver to update mode's main loop (loader_poll),
+ * as the bootloader gets it. Then its answer goes out; invariant 3 on what was sent. */
+static bool via_rx;
+
 static void deliver(const uint8_t *buf, uint16_t len, bool chk_ok)
 {
     uint32_t baud = servo.link.baud;
-    hal.now_us += (uint32_t)len * ((10u * 1000000u + baud - 1u) / baud);
+    uint32_t byte_us = (10u * 1000000u + baud - 1u) / baud;
     uint32_t log_from = hal.log_len, sends = hal.sends;
-    uint8_t out = loader_update_frame(&servo, buf, len, chk_ok, hal.now_us);
+    bool restart = false;
+    if (via_rx) {
+        static const uint8_t header[2] = {PROTO_HEADER0, PROTO_HEADER1};
+        for (uint16_t i = 0; i < len + 2u; i++) {
+            hal.now_us += byte_us;
+            servo_rx_isr(&servo, i < 2u ? header[i] : buf[i - 2u]);
+        }
+        loader_poll(&servo);
+    } else {
+        hal.now_us += (uint32_t)len * byte_us;
+        restart = loader_update_frame(&servo, buf, len, chk_ok, hal.now_us) == UPDATE_RESTART;
+    }
     check_erases();
     bool mine = buf[0] == servo.link.id;
     if (!mine) {
@@ -240,10 +257,19 @@ static void deliver(const uint8_t *buf, uint16_t len, bool chk_ok)
     }
     FUZZ_CHECK(servo.link.state == LINK_WAITING);
     hal.now_us = servo.link.due_us;
-    (void)link_poll(&servo, hal.now_us, true);
+    if (via_rx)
+        loader_poll(&servo);
+    else
+        (void)link_poll(&servo, hal.now_us, true);
     FUZZ_CHECK(hal.sends == sends + 1u);
     hal.now_us = hal.tx_end_us;
-    FUZZ_CHECK(link_poll(&servo, hal.now_us, true));
+    if (via_rx) {
+        loader_poll(&servo);
+        FUZZ_CHECK(servo.link.state == LINK_IDLE);
+        restart = hal.restart_requested;
+    } else {
+        FUZZ_CHECK(link_poll(&servo, hal.now_us, true));
+    }
     uint32_t n = hal.log_len - log_from;
     FUZZ_CHECK(n == 7u || n == 8u);
     uint8_t b[8];
@@ -262,7 +288,7 @@ static void deliver(const uint8_t *buf, uint16_t len, bool chk_ok)
         next_block = (uint8_t)(buf[5] + 1u);
     if (b[5] == UPDATE_READY)
         next_block = 1;
-    if (!hal.flash.powered || out == UPDATE_RESTART) /* a cut; a verified image */
+    if (!hal.flash.powered || restart) /* a cut; a verified image */
         boot();
 }
 
@@ -364,6 +390,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     struct reader r = {data + 1, size - 1u};
     for (unsigned n = 0; r.left && n < MAX_OPS; n++) {
         uint8_t o = get8(&r), f;
+        via_rx = (o & 0x80u) != 0u;
         static uint8_t d[UPDATE_BLOCK_DATA];
         switch (o % 10u) {
         case 0: {
