@@ -8,7 +8,7 @@
  *     c & 3 = 0  keep going          1  new goal: the present position + a signed amount A
  *             2  new goal P           3  speed mode, target velocity V
  *     c & 4      new limits L first
- *   P: 2 bytes mantissa (signed) and a shift byte: m << (s % 45), so |P| < 2^60
+ *   P: 2 bytes mantissa (signed) and a shift byte: m << (s % 46), so |P| <= 2^60
  *   A: the same, the shift s % 40
  *   V: 2 bytes mantissa (signed) and a shift byte: m << (s % 17), within +-(2^31 - 1)
  *   L: three times 2 bytes mantissa m and a shift byte: (m + 1) << (s % 32), at most
@@ -138,10 +138,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     struct reader r = {data, size};
     struct plan p;
     struct plan_limits lim;
-    p.pos = get_pos(&r, 45u);
+    p.pos = get_pos(&r, 46u);
     p.vel = get_vel(&r);
     get_limits(&r, &lim);
-    int64_t goal = get_pos(&r, 45u);
+    int64_t goal = get_pos(&r, 46u);
     bool speed_mode = false;
     int32_t speed = 0;
 
@@ -155,7 +155,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             speed_mode = false;
             break;
         case 2:
-            goal = get_pos(&r, 45u);
+            goal = get_pos(&r, 46u);
             speed_mode = false;
             break;
         case 3:

@@ -11,7 +11,7 @@
  * Input: byte 0 picks the board; then operations, one byte o each, with operands
  * (missing bytes read as 0); a frame goes straight to loader_update_frame, or if o & 0x80
  * through the receiver (D5 5D first) to update mode's main loop (loader_poll):
- *   o % 10 = 0  ENTER f
+ *   (o & 7F) % 10 = 0  ENTER f
  *            1  HEADER f [l0 l1 l2 l3]: the image's length, or (f & 4) the one given
  *            2  END OF BATCH f: the all-zero header
  *            3  DATA f [n]: data block n: the next one (after the last ACKed), or
@@ -23,8 +23,9 @@
  *               % (4 pages, or the whole slot if m & 4); pad byte p; if x & 1, byte
  *               x >> 1 of it (the info block too) is flipped after its CRC-32 was set
  *            6  BOOT: power cycle (the bootloader's install decision, then update mode)
- *            7  CUT k: the power goes at the (k & 63) + 1-th next program or erase, kind
- *               (k >> 6) % 3; the servo then boots again
+ *            7  CUT k: the power goes at the (k & 31) + 1-th next program or erase (of
+ *               the next power-up's install if k & 32), kind (k >> 6) % 3; the servo
+ *               then boots again
  *            8  WAIT: 11 s of silence (the session times out)
  *            9  RAW f s b0 ... : a §10 frame of (s % 12) + 5 bytes, INS FF, sub FC or FE
  *               (f & 4), the rest from the input (LEN as it comes)
@@ -72,6 +73,7 @@ static const struct board *board;
 static uint8_t img[SLOT_BYTES]; /* the image the host sends, padded */
 static uint32_t img_len;
 static uint8_t next_block;       /* after the last ACKed data block */
+static uint8_t boot_cut, boot_cut_kind; /* a power cut planned for the next install */
 static uint8_t app[SLOT_BYTES];  /* the application slot as of the last power-up */
 static uint8_t store_pages[HAL_FLASH_PAGES][HAL_FLASH_PAGE_BYTES];
 static uint32_t erases_outside[HAL_PAGES_ALL];
@@ -211,6 +213,11 @@ static void boot(void)
 
     hal.motor.last_us = hal.now_us; /* the plant does not move: update mode never drives it */
     hal_host_reboot(&hal);
+    if (boot_cut) {
+        hal.flash.cut_at = boot_cut;
+        hal.flash.cut_kind = boot_cut_kind;
+        boot_cut = 0;
+    }
     bool staged_good = slot_good(HAL_PAGE_STAGING);
     bool runs = boot_install(&hal, board->model_number);
     if (runs)
@@ -384,6 +391,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     for (uint8_t p = 0; p < HAL_FLASH_PAGES; p++)
         memcpy(store_pages[p], hal_flash_page(&hal, p), HAL_FLASH_PAGE_BYTES);
     memcpy(erases_outside, hal.flash.erases, sizeof erases_outside);
+    boot_cut = 0;
     make_image(&(struct reader){0, 0});
     boot();
 
@@ -392,7 +400,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         uint8_t o = get8(&r), f;
         via_rx = (o & 0x80u) != 0u;
         static uint8_t d[UPDATE_BLOCK_DATA];
-        switch (o % 10u) {
+        switch ((o & 0x7Fu) % 10u) {
         case 0: {
             const uint8_t p[2] = {0xFFu, UPDATE_SUB_ENTER};
             send_frame(get8(&r), p, 2);
@@ -439,7 +447,12 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             break;
         case 7: {
             uint8_t k = get8(&r);
-            hal.flash.cut_at = hal.flash.ops + (k & 63u) + 1u;
+            if (k & 32u) { /* in the bootloader's install, at the next power-up */
+                boot_cut = (k & 31u) + 1u;
+                boot_cut_kind = (uint8_t)((k >> 6) % 3u);
+                break;
+            }
+            hal.flash.cut_at = hal.flash.ops + (k & 31u) + 1u;
             hal.flash.cut_kind = (uint8_t)((k >> 6) % 3u);
             break;
         }

@@ -12,6 +12,8 @@
 #   tools/fuzz/fuzz.sh               the session above (FUZZ_TARGETS="fuzz_frame ..." for
 #                                    some targets only)
 #   tools/fuzz/fuzz.sh build         build the targets only (build/fuzz/bin/)
+#   tools/fuzz/fuzz.sh coverage      only the coverage of src/ by the corpora (and
+#                                    build/fuzz/cov-show.txt, line by line)
 #   tools/fuzz/fuzz.sh merge [T...]  minimise tests/fuzz/corpus/T/ together with what the
 #                                    runs found (build/fuzz/T/corpus/) with -merge=1, and
 #                                    replace the checked-in corpus with the result
@@ -115,11 +117,36 @@ merge() {
     done
 }
 
+# Coverage of src/ by every corpus: the checked-in one, what the runs added, and the past
+# findings; each target's coverage build replays them once.
+coverage() {
+    echo "== coverage of src/ by the merged corpora (llvm-cov)"
+    rm -f "$out"/cov-*.profraw
+    local objs=() t dirs
+    for t in "${targets[@]}"; do
+        dirs=("tests/fuzz/corpus/$t")
+        [ -d "$out/$t/corpus" ] && dirs+=("$out/$t/corpus")
+        [ -d "tests/fuzz/findings/$t" ] && dirs+=("tests/fuzz/findings/$t")
+        LLVM_PROFILE_FILE="$out/cov-$t.profraw" "$out/bin/$t.cov" "${dirs[@]}" > /dev/null 2>&1 ||
+            echo "  $t: the coverage replay failed (its profile is missing)" >&2
+        objs+=(-object "$out/bin/$t.cov")
+    done
+    llvm-profdata-14 merge -sparse "$out"/cov-*.profraw -o "$out/cov.profdata"
+    llvm-cov-14 report "${objs[@]:1}" -instr-profile="$out/cov.profdata" src/*.c > "$out/cov.txt"
+    awk '$1 ~ /\.c$/ { printf "  %-16s lines %7s  branches %7s\n", $1, $10, $13 }' "$out/cov.txt"
+    # What stays uncovered, line by line, for docs/hardening.md.
+    llvm-cov-14 show "${objs[@]:1}" -instr-profile="$out/cov.profdata" -show-branches=count \
+        src/*.c > "$out/cov-show.txt" 2>/dev/null || true
+}
+
 case ${1:-run} in
 build) build; exit 0 ;;
+coverage) build; coverage
+    awk '$1 == "TOTAL" { printf "coverage src/: lines %s branches %s\n", $10, $13 }' "$out/cov.txt"
+    exit 0 ;;
 merge) shift; build; merge "$@"; exit 0 ;;
 run) ;;
-*) echo "usage: $0 [build | merge [TARGET...]]" >&2; exit 2 ;;
+*) echo "usage: $0 [build | coverage | merge [TARGET...]]" >&2; exit 2 ;;
 esac
 
 echo "== building ${#targets[@]} fuzz targets (clang, libFuzzer, ASan, UBSan)"
@@ -144,22 +171,7 @@ done
 while [ "$(jobs -rp | grep -vc "^$mon\$")" -gt 0 ]; do wait -n || true; done
 kill $mon 2>/dev/null || true
 
-# Coverage of src/ by every corpus: the checked-in one, what this session added, and the
-# past findings; each target's coverage build replays them once.
-echo "== coverage of src/ by the merged corpora (llvm-cov)"
-rm -f "$out"/cov-*.profraw
-objs=()
-for t in "${targets[@]}"; do
-    dirs=("tests/fuzz/corpus/$t" "$out/$t/corpus")
-    [ -d "tests/fuzz/findings/$t" ] && dirs+=("tests/fuzz/findings/$t")
-    LLVM_PROFILE_FILE="$out/cov-$t.profraw" "$out/bin/$t.cov" "${dirs[@]}" > /dev/null 2>&1 ||
-        echo "  $t: the coverage replay failed (its profile is missing)" >&2
-    objs+=(-object "$out/bin/$t.cov")
-done
-llvm-profdata-14 merge -sparse "$out"/cov-*.profraw -o "$out/cov.profdata"
-llvm-cov-14 report "${objs[@]:1}" -instr-profile="$out/cov.profdata" src/*.c > "$out/cov.txt"
-awk '$1 ~ /\.c$/ { printf "  %-16s lines %7s  branches %7s\n", $1, $10, $13 }' "$out/cov.txt"
-
+coverage
 found_any=0
 for t in "${targets[@]}"; do
     log=$out/$t/log
