@@ -49,7 +49,7 @@
 #include "servo.h"
 
 #define POLL_US 250u
-#define MAX_VIRTUAL_US 4000000u /* an input plays at most 4 s of bus time */
+#define MAX_VIRTUAL_US 6000000u /* an input plays at most 6 s of bus time (a homing) */
 
 const char fuzz_target_name[] = "fuzz_bus";
 
