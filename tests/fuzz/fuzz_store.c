@@ -60,8 +60,8 @@ static uint8_t get8(struct reader *r)
 /* Invariant 2, cheaply after every operation: no erase outside the store. */
 static void check_outside_erases(void)
 {
-    for (uint8_t p = HAL_FLASH_PAGES; p < HAL_PAGES_ALL; p++)
-        FUZZ_CHECK(hal.flash.erases[p] == 0u);
+    static const uint32_t none[HAL_PAGES_ALL - HAL_FLASH_PAGES];
+    FUZZ_CHECK(memcmp(&hal.flash.erases[HAL_FLASH_PAGES], none, sizeof none) == 0);
 }
 
 static bool kept(uint8_t a)
@@ -71,7 +71,7 @@ static bool kept(uint8_t a)
 }
 
 /* Power comes back and the servo boots: recovery into a factory table, checked. */
-static void boot(uint32_t now)
+FUZZ_NO_COVERAGE static void boot(uint32_t now)
 {
     flash_sim_power_on(&hal.flash);
     struct regs factory;
