@@ -172,17 +172,23 @@ while [ "$(jobs -rp | grep -vc "^$mon\$")" -gt 0 ]; do wait -n || true; done
 kill $mon 2>/dev/null || true
 
 coverage
+# Findings first (on stderr), then the summary: one line per target, the coverage line.
 found_any=0
+summary=()
 for t in "${targets[@]}"; do
     log=$out/$t/log
     runs=$(awk '/stat::number_of_executed_units/ {print $NF}' "$log")
     speed=$(awk '/stat::average_exec_per_sec/ {print $NF}' "$log")
     found=$(find "$out/$t/findings" -type f \( -name 'crash-*' -o -name 'leak-*' \
-            -o -name 'timeout-*' -o -name 'oom-*' -o -name 'slow-unit-*' \) | wc -l)
+            -o -name 'timeout-*' -o -name 'oom-*' \) | wc -l)
     if [ "$(cat "$out/$t/rc")" != 0 ] && [ "$found" -eq 0 ]; then found=1; fi
-    [ "$found" -eq 0 ] || { found_any=1; echo "  $t: FINDINGS in $out/$t/findings/ (log: $log)" >&2; \
-                            grep -a -A12 -m1 -E 'ERROR|invariant failed' "$log" >&2 || true; }
-    echo "fuzz $t: ${runs:-0} executions in ${seconds} s (${speed:-0} exec/s), findings: $found"
+    if [ "$found" -ne 0 ]; then
+        found_any=1
+        echo "  $t: FINDINGS in $out/$t/findings/ (log: $log)" >&2
+        grep -a -A12 -m1 -E 'ERROR|invariant failed' "$log" >&2 || true
+    fi
+    summary+=("fuzz $t: ${runs:-0} executions in ${seconds} s (${speed:-0} exec/s), findings: $found")
 done
+printf '%s\n' "${summary[@]}"
 awk '$1 == "TOTAL" { printf "coverage src/: lines %s branches %s\n", $10, $13 }' "$out/cov.txt"
 exit "$found_any"
