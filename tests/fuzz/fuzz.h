@@ -37,6 +37,20 @@ extern const char fuzz_target_name[];
 #define FUZZ_NO_COVERAGE
 #endif
 
+/* The input read front to back; past its end, bytes read as 0. */
+struct fuzz_reader {
+    const uint8_t *p;
+    size_t left;
+};
+
+static inline uint8_t fuzz_get8(struct fuzz_reader *r)
+{
+    if (!r->left)
+        return 0;
+    r->left--;
+    return *r->p++;
+}
+
 #ifdef FUZZ_LIBFUZZER
 #include <time.h>
 

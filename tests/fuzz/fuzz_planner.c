@@ -40,33 +40,20 @@
 
 const char fuzz_target_name[] = "fuzz_planner";
 
-struct reader {
-    const uint8_t *p;
-    size_t left;
-};
-
-static uint8_t get8(struct reader *r)
+static int16_t get_s16(struct fuzz_reader *r)
 {
-    if (!r->left)
-        return 0;
-    r->left--;
-    return *r->p++;
+    uint16_t lo = fuzz_get8(r);
+    return (int16_t)(uint16_t)(lo | (uint16_t)(fuzz_get8(r) << 8));
 }
 
-static int16_t get_s16(struct reader *r)
-{
-    uint16_t lo = get8(r);
-    return (int16_t)(uint16_t)(lo | (uint16_t)(get8(r) << 8));
-}
-
-static int64_t get_pos(struct reader *r, unsigned shifts)
+static int64_t get_pos(struct fuzz_reader *r, unsigned shifts)
 {
     int64_t m = get_s16(r);
-    unsigned s = get8(r) % shifts;
+    unsigned s = fuzz_get8(r) % shifts;
     return m * ((int64_t)1 << s);
 }
 
-static int32_t get_vel(struct reader *r)
+static int32_t get_vel(struct fuzz_reader *r)
 {
     int64_t v = get_pos(r, 17u); /* |m| <= 2^15, so |v| <= 2^31 */
     if (v > INT32_MAX)
@@ -76,14 +63,14 @@ static int32_t get_vel(struct reader *r)
     return (int32_t)v;
 }
 
-static int32_t get_limit(struct reader *r)
+static int32_t get_limit(struct fuzz_reader *r)
 {
     uint64_t m = (uint16_t)get_s16(r);
-    uint64_t v = (m + 1u) << (get8(r) % 32u);
+    uint64_t v = (m + 1u) << (fuzz_get8(r) % 32u);
     return v > INT32_MAX ? INT32_MAX : (int32_t)v;
 }
 
-static void get_limits(struct reader *r, struct plan_limits *lim)
+static void get_limits(struct fuzz_reader *r, struct plan_limits *lim)
 {
     lim->vmax = get_limit(r);
     lim->acc = get_limit(r);
@@ -135,7 +122,7 @@ static double land_bound(const struct plan *p, int64_t goal, const struct plan_l
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
     fuzz_progress();
-    struct reader r = {data, size};
+    struct fuzz_reader r = {data, size};
     struct plan p;
     struct plan_limits lim;
     p.pos = get_pos(&r, 46u);
@@ -146,7 +133,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     int32_t speed = 0;
 
     for (unsigned ticks = 0; r.left && ticks < MAX_TICKS;) {
-        uint8_t c = get8(&r);
+        uint8_t c = fuzz_get8(&r);
         if (c & 4u)
             get_limits(&r, &lim);
         switch (c & 3u) {

@@ -44,19 +44,6 @@ static struct store st;
 static struct regs table;
 static const struct board *board;
 
-struct reader {
-    const uint8_t *p;
-    size_t left;
-};
-
-static uint8_t get8(struct reader *r)
-{
-    if (!r->left)
-        return 0;
-    r->left--;
-    return *r->p++;
-}
-
 /* Invariant 2, cheaply after every operation: no erase outside the store. */
 static void check_outside_erases(void)
 {
@@ -123,17 +110,17 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     hal.flash.cut_at = 0;
     hal.flash.rng = 0x2545F491u;
     board = boards[data[0] % 5u];
-    struct reader r = {data + 1, size - 1u};
+    struct fuzz_reader r = {data + 1, size - 1u};
     uint32_t now = 0;
     boot(now);
 
     for (unsigned n = 0; r.left && n < MAX_OPS; n++) {
-        uint8_t o = get8(&r);
+        uint8_t o = fuzz_get8(&r);
         switch (o % 8u) {
         case 0: {
-            uint8_t a = get8(&r) % REGS_SIZE, v[2];
-            v[0] = get8(&r);
-            v[1] = get8(&r);
+            uint8_t a = fuzz_get8(&r) % REGS_SIZE, v[2];
+            v[0] = fuzz_get8(&r);
+            v[1] = fuzz_get8(&r);
             uint8_t width = regs_table[a].size;
             if (width && regs_write_valid(&table, a, v, width)) {
                 regs_set(&table, a, regs_value(v, width));
@@ -142,7 +129,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             break;
         }
         case 1: {
-            uint8_t k = get8(&r);
+            uint8_t k = fuzz_get8(&r);
             hal.flash.cut_at = hal.flash.ops + (k & 31u) + 1u;
             hal.flash.cut_kind = (uint8_t)((k >> 5) % 3u);
             break;
@@ -151,26 +138,26 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             boot(now);
             break;
         case 3: {
-            uint8_t p = get8(&r) % HAL_FLASH_PAGES;
-            uint16_t lo = get8(&r);
-            uint16_t off = (uint16_t)((lo | (uint16_t)(get8(&r) << 8)) % HAL_FLASH_PAGE_BYTES);
-            hal.flash.mem[p][off] = get8(&r);
+            uint8_t p = fuzz_get8(&r) % HAL_FLASH_PAGES;
+            uint16_t lo = fuzz_get8(&r);
+            uint16_t off = (uint16_t)((lo | (uint16_t)(fuzz_get8(&r) << 8)) % HAL_FLASH_PAGE_BYTES);
+            hal.flash.mem[p][off] = fuzz_get8(&r);
             break;
         }
         case 4: {
-            uint8_t p = get8(&r) % HAL_FLASH_PAGES;
-            uint16_t off = (uint16_t)(2u * (get8(&r) % (HAL_FLASH_PAGE_BYTES / 2u)));
-            hal.flash.mem[p][off] = get8(&r);
-            hal.flash.mem[p][off + 1u] = get8(&r);
+            uint8_t p = fuzz_get8(&r) % HAL_FLASH_PAGES;
+            uint16_t off = (uint16_t)(2u * (fuzz_get8(&r) % (HAL_FLASH_PAGE_BYTES / 2u)));
+            hal.flash.mem[p][off] = fuzz_get8(&r);
+            hal.flash.mem[p][off + 1u] = fuzz_get8(&r);
             break;
         }
         case 5: {
-            uint8_t p = get8(&r) % HAL_FLASH_PAGES;
-            memset(hal.flash.mem[p], get8(&r), HAL_FLASH_PAGE_BYTES);
+            uint8_t p = fuzz_get8(&r) % HAL_FLASH_PAGES;
+            memset(hal.flash.mem[p], fuzz_get8(&r), HAL_FLASH_PAGE_BYTES);
             break;
         }
         case 6: {
-            uint8_t t = get8(&r);
+            uint8_t t = fuzz_get8(&r);
             now += (t + 1u) * 1000000u;
             store_poll(&st, &table, now, (t & 1u) == 0u);
             break;

@@ -85,19 +85,6 @@ _Static_assert(offsetof(struct hal, log) + sizeof hal.log == sizeof(struct hal),
 static struct hal fresh[5];
 static bool fresh_made[5];
 
-struct reader {
-    const uint8_t *p;
-    size_t left;
-};
-
-static uint8_t get8(struct reader *r)
-{
-    if (!r->left)
-        return 0;
-    r->left--;
-    return *r->p++;
-}
-
 /* CRC-32 (IEEE, reflected), table-driven: not the firmware's code. Start with
  * 0xFFFFFFFF, finish with ~. */
 FUZZ_NO_COVERAGE static uint32_t crc32_independent(uint32_t c, const uint8_t *p, uint32_t n)
@@ -346,14 +333,14 @@ static void send_block(uint8_t f, uint8_t type, uint8_t num, const uint8_t *data
     send_frame(f, &p[0], (uint16_t)(n + 7u));
 }
 
-static void make_image(struct reader *r)
+static void make_image(struct fuzz_reader *r)
 {
     static const uint16_t models[] = {BOARD_MODEL_BASE, BOARD_MODEL_FOOT, BOARD_MODEL_ARM,
                                       BOARD_MODEL_WRIST, BOARD_MODEL_FINGER};
-    uint8_t m = get8(r), v = get8(r);
-    uint16_t l = get8(r);
-    l = (uint16_t)(l | get8(r) << 8);
-    uint8_t pad = get8(r), x = get8(r);
+    uint8_t m = fuzz_get8(r), v = fuzz_get8(r);
+    uint16_t l = fuzz_get8(r);
+    l = (uint16_t)(l | fuzz_get8(r) << 8);
+    uint8_t pad = fuzz_get8(r), x = fuzz_get8(r);
     uint16_t model = board->model_number;
     if ((m & 3u) == 1u)
         model = models[(board->variant + 1u + (m >> 3) % 4u) % 5u];
@@ -392,26 +379,26 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         memcpy(store_pages[p], hal_flash_page(&hal, p), HAL_FLASH_PAGE_BYTES);
     memcpy(erases_outside, hal.flash.erases, sizeof erases_outside);
     boot_cut = 0;
-    make_image(&(struct reader){0, 0});
+    make_image(&(struct fuzz_reader){0, 0});
     boot();
 
-    struct reader r = {data + 1, size - 1u};
+    struct fuzz_reader r = {data + 1, size - 1u};
     for (unsigned n = 0; r.left && n < MAX_OPS; n++) {
-        uint8_t o = get8(&r), f;
+        uint8_t o = fuzz_get8(&r), f;
         via_rx = (o & 0x80u) != 0u;
         static uint8_t d[UPDATE_BLOCK_DATA];
         switch ((o & 0x7Fu) % 10u) {
         case 0: {
             const uint8_t p[2] = {0xFFu, UPDATE_SUB_ENTER};
-            send_frame(get8(&r), p, 2);
+            send_frame(fuzz_get8(&r), p, 2);
             break;
         }
         case 1: {
-            f = get8(&r);
+            f = fuzz_get8(&r);
             uint32_t len = img_len;
             if (f & 4u)
                 for (int i = 0; i < 4; i++) /* big-endian, as the header carries it */
-                    len = i ? len << 8 | get8(&r) : get8(&r);
+                    len = i ? len << 8 | fuzz_get8(&r) : fuzz_get8(&r);
             memset(d, 0, UPDATE_HEADER_DATA);
             d[0] = (uint8_t)(len >> 24);
             d[1] = (uint8_t)(len >> 16);
@@ -422,11 +409,11 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         }
         case 2:
             memset(d, 0, UPDATE_HEADER_DATA);
-            send_block(get8(&r), UPDATE_TYPE_HEADER, 0, d, UPDATE_HEADER_DATA);
+            send_block(fuzz_get8(&r), UPDATE_TYPE_HEADER, 0, d, UPDATE_HEADER_DATA);
             break;
         case 3: {
-            f = get8(&r);
-            uint8_t num = (f & 4u) ? get8(&r) : next_block;
+            f = fuzz_get8(&r);
+            uint8_t num = (f & 4u) ? fuzz_get8(&r) : next_block;
             uint32_t at = (uint32_t)((uint8_t)(num - 1u) % HAL_SLOT_PAGES) * HAL_FLASH_PAGE_BYTES;
             memcpy(d, &img[at], UPDATE_BLOCK_DATA);
             if (f & 0x20u)
@@ -436,7 +423,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         }
         case 4: {
             const uint8_t p[3] = {0xFFu, UPDATE_SUB_BLOCK, UPDATE_TYPE_EOF};
-            send_frame(get8(&r), p, 3);
+            send_frame(fuzz_get8(&r), p, 3);
             break;
         }
         case 5:
@@ -446,7 +433,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             boot();
             break;
         case 7: {
-            uint8_t k = get8(&r);
+            uint8_t k = fuzz_get8(&r);
             if (k & 32u) { /* in the bootloader's install, at the next power-up */
                 boot_cut = (k & 31u) + 1u;
                 boot_cut_kind = (uint8_t)((k >> 6) % 3u);
@@ -460,13 +447,13 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             hal.now_us += UPDATE_TIMEOUT_US + 1000000u;
             break;
         default: {
-            f = get8(&r);
+            f = fuzz_get8(&r);
             uint8_t p[16];
-            uint16_t k = (uint16_t)(get8(&r) % 12u + 2u);
+            uint16_t k = (uint16_t)(fuzz_get8(&r) % 12u + 2u);
             p[0] = 0xFFu;
             p[1] = (f & 4u) ? UPDATE_SUB_ENTER : UPDATE_SUB_BLOCK;
             for (uint16_t i = 2; i < k; i++)
-                p[i] = get8(&r);
+                p[i] = fuzz_get8(&r);
             send_frame(f, p, k);
             break;
         }
