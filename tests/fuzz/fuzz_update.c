@@ -1,16 +1,19 @@
 /* fuzz_update.c - the firmware update (PROTOCOL.md §10): arbitrary sequences of update
  * frames into the session (update.c, through loader_update_frame, which update mode and
  * the application's dispatcher share), power cuts, and the bootloader's install decision
- * at every power-up (boot_install).
+ * at every power-up (boot_install, through servo_power_on: then the application or, with
+ * no valid application, update mode).
  *
  * The harness builds the frames, so they can be right where a fuzzer would never get
  * them right by chance (LEN, block number and complement, CRC-16, the checksum), and
  * wrong on purpose where the input says; data blocks carry the pages of an image the
  * input describes (own model or another, any length, CRC-32 right or not).
  *
- * Input: byte 0 picks the board; then operations, one byte o each, with operands
- * (missing bytes read as 0); a frame goes straight to loader_update_frame, or if o & 0x80
- * through the receiver (D5 5D first) to update mode's main loop (loader_poll):
+ * Input: byte 0 picks the board (% 5) and, if (byte 0 / 5) is odd, an application slot
+ * erased at the factory (the servo starts in update mode); then operations, one byte o
+ * each, with operands (missing bytes read as 0); a frame goes straight to
+ * loader_update_frame, or if o & 0x80 through the receiver (D5 5D first) to the main
+ * loop of whatever runs (servo_step):
  *   (o & 7F) % 10 = 0  ENTER f
  *            1  HEADER f [l0 l1 l2 l3]: the image's length, or (f & 4) the one given
  *            2  END OF BATCH f: the all-zero header
@@ -42,9 +45,11 @@
  *   2. never writes outside the staging slot: the session never erases or programs the
  *      application slot or the store (erase counts after every frame, contents at every
  *      power-up);
- *   3. always answers: every update frame to the servo's own ID, damaged or not, gets
- *      exactly one answer, well-formed (D5 5D, own ID, LEN, ERR 0, checksum) with one
- *      byte C, ACK, NAK or CAN, or ACK then C; frames to another ID or broadcast get none.
+ *   3. always answers: every update frame to the servo's own ID, damaged or not, gets an
+ *      answer (straight to the session: exactly one), well-formed (D5 5D, own ID, LEN,
+ *      ERR 0, checksum) with one byte C, ACK, NAK or CAN, or ACK then C; frames to another
+ *      ID or broadcast get none (through the receiver, frames found inside a damaged one
+ *      are answered after it, each well-formed).
  */
 #include <stdbool.h>
 #include <stddef.h>
@@ -121,8 +126,8 @@ FUZZ_NO_COVERAGE static uint32_t image_crc32(uint8_t first_page, const uint8_t *
     const uint32_t at = IMAGE_INFO_OFFSET + IMAGE_OFF_CRC;
     uint32_t c = 0xFFFFFFFFu;
     for (uint32_t done = 0; done < len; done += HAL_FLASH_PAGE_BYTES) {
-        const uint8_t *pg = mem ? &mem[done]
-                                : hal_flash_page(&hal, (uint8_t)(first_page + done / HAL_FLASH_PAGE_BYTES));
+        uint8_t page = (uint8_t)(first_page + done / HAL_FLASH_PAGE_BYTES);
+        const uint8_t *pg = mem ? &mem[done] : hal_flash_page(&hal, page);
         uint32_t n = len - done < HAL_FLASH_PAGE_BYTES ? len - done : HAL_FLASH_PAGE_BYTES;
         if (done == 0u) {
             c = crc32_independent(c, pg, at);
@@ -206,8 +211,8 @@ static void boot(void)
         boot_cut = 0;
     }
     bool staged_good = slot_good(HAL_PAGE_STAGING);
-    bool runs = boot_install(&hal, board->model_number);
-    if (runs)
+    servo_power_on(&servo, board, &hal); /* the bootloader, then the application or update mode */
+    if (!servo.in_loader) /* the bootloader started the application */
         FUZZ_CHECK(slot_good(HAL_PAGE_APP));
     if (!slot_equals(app, HAL_PAGE_APP)) {
         FUZZ_CHECK(staged_good);
@@ -216,15 +221,37 @@ static void boot(void)
     if (!hal.flash.powered) /* a cut during the install: power comes back */
         flash_sim_power_on(&hal.flash);
     memcpy(erases_outside, hal.flash.erases, sizeof erases_outside);
-    loader_init(&servo, board, &hal);
     next_block = 1;
 }
 
 /* Send one update frame (buf, len) as arriving now; check the answer (invariant 3). */
 /* Deliver one update frame (buf, len) ending now: straight to loader_update_frame, or
- * (via_rx) byte by byte through the receiver to update mode's main loop (loader_poll),
- * as the bootloader gets it. Then its answer goes out; invariant 3 on what was sent. */
+ * (via_rx) byte by byte through the receiver to the main loop of what runs (servo_step:
+ * the application's dispatcher, or update mode's loader_poll). Then its answer goes
+ * out: invariant 3 on what was sent. */
 static bool via_rx;
+
+/* One main-loop pass of what runs. The plant is frozen: only update frames arrive, so
+ * nothing ever drives the motor, and integrating it over a 1 s data block is costly. */
+static void step(void)
+{
+    hal.motor.last_us = hal.now_us;
+    servo_step(&servo);
+}
+
+/* A status packet sent from log entry from on: well-formed, from the servo's ID. Returns
+ * its length; its bytes in b. */
+static uint32_t check_sent(uint32_t from, uint8_t b[PROTO_STATUS_MAX])
+{
+    uint32_t n = hal.log_len - from;
+    FUZZ_CHECK(n >= 6u && n <= PROTO_STATUS_MAX);
+    for (uint32_t i = 0; i < n; i++)
+        b[i] = hal_host_tx(&hal, from + i)->byte;
+    FUZZ_CHECK(b[0] == PROTO_HEADER0 && b[1] == PROTO_HEADER1 && b[2] == servo.link.id);
+    FUZZ_CHECK(b[3] == n - 4u);
+    FUZZ_CHECK(proto_sum(&b[2], (uint16_t)(n - 3u)) == b[n - 1u]);
+    return n;
+}
 
 static void deliver(const uint8_t *buf, uint16_t len, bool chk_ok)
 {
@@ -238,40 +265,63 @@ static void deliver(const uint8_t *buf, uint16_t len, bool chk_ok)
             hal.now_us += byte_us;
             servo_rx_isr(&servo, i < 2u ? header[i] : buf[i - 2u]);
         }
-        loader_poll(&servo);
+        step();
     } else {
         hal.now_us += (uint32_t)len * byte_us;
         restart = loader_update_frame(&servo, buf, len, chk_ok, hal.now_us) == UPDATE_RESTART;
     }
     check_erases();
     bool mine = buf[0] == servo.link.id;
-    if (!mine) {
-        FUZZ_CHECK(servo.link.state == LINK_IDLE);
-        return;
-    }
-    FUZZ_CHECK(servo.link.state == LINK_WAITING);
-    hal.now_us = servo.link.due_us;
-    if (via_rx)
-        loader_poll(&servo);
-    else
-        (void)link_poll(&servo, hal.now_us, true);
-    FUZZ_CHECK(hal.sends == sends + 1u);
-    hal.now_us = hal.tx_end_us;
+    FUZZ_CHECK(servo.link.state == (mine ? LINK_WAITING : LINK_IDLE));
+    uint8_t b[PROTO_STATUS_MAX];
+    uint32_t n = 0;
     if (via_rx) {
-        loader_poll(&servo);
-        FUZZ_CHECK(servo.link.state == LINK_IDLE);
+        /* The main loop runs on at every event until all is quiet: the answer waits while
+         * the receiver is inside a frame (a damaged frame's bytes may hold what looks
+         * like the start of another), and frames found inside a damaged one come after
+         * it, each answered in turn: every answer well-formed, the first is this one's. */
+        for (unsigned pass = 0; pass < 16u && !hal.restart_requested; pass++) {
+            uint32_t next = hal.now_us;
+            uint32_t quiet = servo.rx.last_us + servo.rx.gap_us + servo.rx.byte_us + 1u;
+            if (servo.link.state == LINK_SENDING)
+                next = hal.tx_end_us;
+            else if (servo.rx.in_frame) /* nothing starts before the receiver gives up */
+                next = quiet;
+            else if (servo.link.state == LINK_WAITING)
+                next = servo.link.due_us;
+            else if (servo.rx.ready_tail == servo.rx.ready_head)
+                break;
+            if (servo.link.state == LINK_WAITING && (int32_t)(servo.link.due_us - next) > 0)
+                next = servo.link.due_us;
+            if ((int32_t)(next - hal.now_us) > 0)
+                hal.now_us = next;
+            uint32_t from = hal.log_len, before = hal.sends;
+            uint8_t first = hal.sends == sends;
+            step();
+            if (hal.sends != before && first)
+                n = check_sent(from, b);
+            else if (hal.sends != before) {
+                uint8_t other[PROTO_STATUS_MAX];
+                (void)check_sent(from, other);
+            }
+        }
+        FUZZ_CHECK(hal.restart_requested || servo.link.state == LINK_IDLE);
         restart = hal.restart_requested;
+        if (!mine)
+            return; /* (frames found inside it may have been answered) */
+        FUZZ_CHECK(hal.sends >= sends + 1u);
     } else {
+        if (!mine)
+            return;
+        hal.now_us = servo.link.due_us;
+        (void)link_poll(&servo, hal.now_us, true);
+        FUZZ_CHECK(hal.sends == sends + 1u);
+        hal.now_us = hal.tx_end_us;
         FUZZ_CHECK(link_poll(&servo, hal.now_us, true));
+        n = check_sent(log_from, b);
     }
-    uint32_t n = hal.log_len - log_from;
-    FUZZ_CHECK(n == 7u || n == 8u);
-    uint8_t b[8];
-    for (uint32_t i = 0; i < n; i++)
-        b[i] = hal_host_tx(&hal, log_from + i)->byte;
-    FUZZ_CHECK(b[0] == PROTO_HEADER0 && b[1] == PROTO_HEADER1 && b[2] == servo.link.id);
-    FUZZ_CHECK(b[3] == n - 4u && b[4] == 0u);
-    FUZZ_CHECK(proto_sum(&b[2], (uint16_t)(n - 3u)) == b[n - 1u]);
+    /* 3: the update answer: ERR 0, then C, ACK, NAK or CAN, or ACK C. */
+    FUZZ_CHECK((n == 7u || n == 8u) && b[4] == 0u);
     if (n == 7u)
         FUZZ_CHECK(b[5] == UPDATE_READY || b[5] == UPDATE_ACK || b[5] == UPDATE_NAK ||
                    b[5] == UPDATE_CAN);
@@ -373,6 +423,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         fresh_made[bi] = true;
     }
     memcpy(&hal, &fresh[bi], HAL_FRESH_BYTES);
+    if ((data[0] / 5u) & 1u) /* no valid application: update mode */
+        for (uint8_t p = 0; p < HAL_SLOT_PAGES; p++)
+            memset(hal.flash.mem[HAL_PAGE_APP + p], 0xFF, HAL_FLASH_PAGE_BYTES);
     hal.log_len = 0;
     copy_slot(app, HAL_PAGE_APP);
     for (uint8_t p = 0; p < HAL_FLASH_PAGES; p++)
