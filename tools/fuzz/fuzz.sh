@@ -10,7 +10,8 @@
 # copy them to tests/fuzz/findings/TARGET/ so every `make test` replays them).
 #
 #   tools/fuzz/fuzz.sh               the session above (FUZZ_TARGETS="fuzz_frame ..." for
-#                                    some targets only)
+#                                    some targets only; FUZZ_NICE=19 for a long run in the
+#                                    background on a shared machine)
 #   tools/fuzz/fuzz.sh build         build the targets only (build/fuzz/bin/)
 #   tools/fuzz/fuzz.sh coverage      only the coverage of src/ by the corpora (and
 #                                    build/fuzz/cov-show.txt, line by line)
