@@ -114,7 +114,7 @@ static double land_bound(const struct plan *p, int64_t goal, const struct plan_l
     double a = lim->acc < lim->dec ? lim->acc : lim->dec;
     double t_stop = v / dec + 1.0;
     double stop_dist = v * (t_stop + 1.0);
-    double d = fabs((double)goal - (double)p->pos) + stop_dist;
+    double d = fabs((double)(goal - p->pos)) + stop_dist; /* exact difference first */
     double t_move = d <= vmax * vmax / a ? 2.0 * sqrt(d / a) : d / vmax + vmax / a;
     return 2.0 * (t_stop + t_move + 2.0) + 16.0;
 }
