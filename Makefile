@@ -44,8 +44,10 @@ test: host stm32 qemu-image firmware lint
 lint: host
 	@tools/lint/lint.sh
 
-# The bus fuzzer under libFuzzer (clang, ASan+UBSan) for FUZZ_SECONDS, then the coverage
-# of src/ by its corpus. CI runs a bounded session (FUZZ_SECONDS=90) after make test.
+# Every fuzz target (tests/fuzz/: fuzz_frame, fuzz_store, fuzz_update, fuzz_planner and
+# the whole-servo fuzz_bus) under libFuzzer (clang, ASan+UBSan) for FUZZ_SECONDS each, a
+# target per core, then the coverage of src/ by the merged corpora. CI runs a bounded
+# session (FUZZ_SECONDS=20) before make test.
 FUZZ_SECONDS ?= 600
 fuzz: deps
 	@FUZZ_SECONDS=$(FUZZ_SECONDS) tools/fuzz/fuzz.sh

@@ -1,13 +1,13 @@
 #!/usr/bin/env python3
 """fuzz_seeds.py - the seed corpus of the bus fuzzer (tests/fuzz/fuzz_bus.c) from the
-replay transcripts: one file per transcript, tests/fuzz/corpus/<name>.bin.
+replay transcripts: one file per transcript, tests/fuzz/corpus/fuzz_bus/<name>.bin.
 
 The first `servo` line gives the board (byte 0) and ID (byte 1); every `send` line's bytes
 follow (CHK resolved as the replay runner does, FF escaped as FF FF), `+N` becomes an idle
 gap, `expect`/`silence`/`wait` become a gap long enough for the answer, `power-cycle` a
 reboot (FF FE). See the input format at the top of fuzz_bus.c.
 
-Usage: tools/fuzz_seeds.py [tests/replay] [tests/fuzz/corpus]
+Usage: tools/fuzz_seeds.py [tests/replay] [tests/fuzz/corpus/fuzz_bus]
 """
 import math
 import os
@@ -60,7 +60,7 @@ def convert(path):
 
 def main():
     src = sys.argv[1] if len(sys.argv) > 1 else "tests/replay"
-    dst = sys.argv[2] if len(sys.argv) > 2 else "tests/fuzz/corpus"
+    dst = sys.argv[2] if len(sys.argv) > 2 else "tests/fuzz/corpus/fuzz_bus"
     os.makedirs(dst, exist_ok=True)
     n = 0
     for name in sorted(os.listdir(src)):

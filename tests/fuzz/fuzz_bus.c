@@ -2,14 +2,16 @@
  * safety, the store on simulated flash) fed an arbitrary byte stream with arbitrary
  * timing, checking invariants after every byte, gap and dispatched frame.
  *
- * Built two ways from this one source:
- *   - with clang -fsanitize=fuzzer,address,undefined (FUZZ_LIBFUZZER defined by
- *     tools/fuzz/fuzz.sh): the libFuzzer target of `make fuzz`;
- *   - with gcc in the host preset (ASan+UBSan): `fuzz_replay FILE|DIR...` runs each file
- *     once; CTest replays tests/fuzz/corpus/ and every past finding in
- *     tests/fuzz/findings/.
+ * Built two ways from this one source (fuzz.h): the libFuzzer target of `make fuzz`, and
+ * the replay driver fuzz_replay_bus that CTest runs over tests/fuzz/corpus/fuzz_bus/ and
+ * tests/fuzz/findings/fuzz_bus/. It plays up to 4 s of bus time per input (about 100
+ * inputs per second); the fast targets (fuzz_frame, fuzz_store, fuzz_update,
+ * fuzz_planner) cover the same surfaces without the real-time part.
  *
- * Input: byte 0 picks the board (base, foot, arm, wrist, finger), byte 1 the servo's ID
+ * Input: byte 0 picks the board (byte 0 % 5: base, foot, arm, wrist, finger) and the
+ * faults the servo's sensors see (byte 0 / 5, bits: 0-1 supply low, high or dropping
+ * low then high; 2 over-temperature; 3 a current spike; 4 the shaft jammed), present in
+ * every other half second of virtual time from the second one on; byte 1 the servo's ID
  * (0: factory ID 1). The rest is the wire, from the host:
  *   FF FF      one data byte FF
  *   FF FE      power cycle (reboot the servo; the flash survives)
@@ -44,18 +46,20 @@
 #include <string.h>
 
 #include "../identity_check.h"
+#include "fuzz.h"
 #include "hal_host.h"
 #include "proto.h"
 #include "servo.h"
 
 #define POLL_US 250u
-#define MAX_VIRTUAL_US 4000000u /* an input plays at most 4 s of bus time */
+#define MAX_VIRTUAL_US 6000000u /* an input plays at most 6 s of bus time (a homing) */
 
-int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+const char fuzz_target_name[] = "fuzz_bus";
 
 static struct hal hal;
 static struct servo servo;
 static uint8_t factory[REGS_SIZE];
+static uint8_t faults;        /* byte 0 / 5 */
 static bool motion_commanded; /* invariant 3 */
 static bool speed0_window;    /* invariant 4 */
 
@@ -152,12 +156,28 @@ static void poll_once(void)
     check_all();
 }
 
+/* The sensors as the faults of the input have them now. */
+static void sense(void)
+{
+    bool on = ((hal.now_us / 500000u) & 1u) != 0u;
+    static const uint16_t supply[4] = {12000u, 8000u, 16000u, 8000u};
+    uint8_t v = faults & 3u;
+    if (v == 3u && (hal.now_us / 1000000u) & 1u)
+        v = 2u; /* dropping low, then high */
+    hal.supply_mv = on ? supply[v] : 12000u;
+    hal.temperature_dc = on && (faults & 4u) ? 900 : 250;
+    hal.current_extra_ma = on && (faults & 8u) ? 5000u : 0u;
+    hal.motor.blocked = on && (faults & 16u);
+}
+
 /* Advance virtual time to t, running the main loop every POLL_US. */
 static void run_until(uint32_t t)
 {
     while ((int32_t)(t - hal.now_us) > 0) {
         uint32_t step = t - hal.now_us;
         hal.now_us += step < POLL_US ? step : POLL_US;
+        if (faults)
+            sense();
         poll_once();
     }
 }
@@ -174,9 +194,11 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
     static const struct board *const boards[] = {&board_base, &board_foot, &board_arm,
                                                  &board_wrist, &board_finger};
+    fuzz_progress();
     if (size < 2u)
         return 0;
     const struct board *b = boards[data[0] % 5u];
+    faults = (uint8_t)(data[0] / 5u);
     hal_host_init(&hal);
     hal_host_attach_board(&hal, b);
     hal_host_program_factory(&hal, b);
@@ -217,59 +239,3 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     run_until(hal.now_us + 20000u); /* let the last answer go out */
     return 0;
 }
-
-#ifndef FUZZ_LIBFUZZER
-/* Replay driver: every file named, every regular file in every directory named. */
-#include <dirent.h>
-
-static int run_file(const char *path)
-{
-    FILE *fp = fopen(path, "rb");
-    if (!fp) {
-        perror(path);
-        return 1;
-    }
-    static uint8_t buf[1u << 20];
-    size_t n = fread(buf, 1, sizeof buf, fp);
-    fclose(fp);
-    LLVMFuzzerTestOneInput(buf, n);
-    return 0;
-}
-
-static int cmp(const void *a, const void *b)
-{
-    return strcmp(*(char *const *)a, *(char *const *)b);
-}
-
-int main(int argc, char **argv)
-{
-    unsigned files = 0;
-    int rc = 0;
-    for (int a = 1; a < argc; a++) {
-        DIR *d = opendir(argv[a]);
-        if (!d) {
-            rc |= run_file(argv[a]);
-            files++;
-            continue;
-        }
-        char *names[4096];
-        unsigned n = 0;
-        for (struct dirent *e; (e = readdir(d)) != NULL && n < 4096u;)
-            if (e->d_name[0] != '.' && strcmp(e->d_name, "README.md") != 0) {
-                size_t len = strlen(argv[a]) + strlen(e->d_name) + 2u;
-                names[n] = malloc(len);
-                snprintf(names[n], len, "%s/%s", argv[a], e->d_name);
-                n++;
-            }
-        closedir(d);
-        qsort(names, n, sizeof names[0], cmp);
-        for (unsigned i = 0; i < n; i++) {
-            rc |= run_file(names[i]);
-            free(names[i]);
-            files++;
-        }
-    }
-    printf("fuzz_replay: %u inputs, every invariant held\n", files);
-    return rc;
-}
-#endif
