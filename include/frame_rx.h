@@ -3,7 +3,7 @@
  * the main loop through a single-producer/single-consumer queue.
  *
  * Interrupt side: frame_rx_byte() only. Main-loop side: everything else;
- * frame_rx_set_gap() and frame_rx_idle() must be called with the receive interrupt masked.
+ * frame_rx_set_baud() and frame_rx_idle() must be called with the receive interrupt masked.
  *
  * Resynchronisation: every `D5 5D` seen inside a frame may start another candidate
  * frame (a "shadow"; one runs at a time). If the frame in progress turns out bad
@@ -83,7 +83,9 @@ void frame_rx_init(struct frame_rx *rx, uint32_t baud);
  * line: from the end of one byte to the start of the next. */
 uint32_t frame_rx_gap_us(uint32_t baud);
 
-/* ISR: one received byte that arrived at now_us. O(1), no loops. */
+/* ISR: one received byte that arrived at now_us. Bounded time: its only loops run over
+ * the few slots (at most FRAME_SLOTS + 1 steps) and the 5 bytes moved into the block
+ * buffer when a §10 data block is recognised. */
 void frame_rx_byte(struct frame_rx *rx, uint8_t byte, uint32_t now_us);
 
 /* Main loop, irq masked: apply the inter-byte time-out at now_us (so a frame waiting
