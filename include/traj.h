@@ -3,6 +3,7 @@
 #ifndef TRAJ_H
 #define TRAJ_H
 
+#include <stdbool.h>
 #include <stdint.h>
 
 #include "regs.h"
@@ -24,6 +25,12 @@ struct traj {
 /* Replace the stored trajectory with the parameters of a TRAJECTORY WRITE (count, then
  * the points). All or nothing: returns 0, or ERR_INSTRUCTION leaving t unchanged. */
 uint8_t traj_write(struct traj *t, const struct regs *r, const uint8_t *p, uint8_t n);
+
+/* No trajectory is stored (TRAJECTORY ACTION is refused). */
+static inline bool traj_empty(const struct traj *t)
+{
+    return t->count == 0u;
+}
 
 /* Forget the stored points. */
 void traj_clear(struct traj *t);

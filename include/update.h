@@ -46,6 +46,12 @@ struct update {
     uint32_t last_us; /* arrival of the last update frame */
 };
 
+/* A session is open: the servo only reports (PING, READ) until it ends. */
+static inline bool update_in_session(const struct update *u)
+{
+    return u->state != UPDATE_IDLE;
+}
+
 /* Is this frame (buf = ID, LEN, INS, params..., CHK; len bytes) a §10 frame, i.e.
  * instruction 0xFF with sub-command 0xFC or 0xFE? */
 bool update_is_frame(const uint8_t *buf, uint16_t len);

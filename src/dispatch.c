@@ -190,7 +190,7 @@ static void execute(struct servo *s, uint8_t ins, const uint8_t *p, uint8_t n, b
         res->err = traj_write(&s->traj, &s->regs, p, n);
         return;
     case INS_TRAJ_ACTION:
-        if (n != 0u || s->traj.count == 0u)
+        if (n != 0u || traj_empty(&s->traj))
             res->err = ERR_INSTRUCTION;
         else
             res->err = motion_traj_action(s);
@@ -235,7 +235,7 @@ void dispatch_frame(struct servo *s, const struct frame *f)
     uint8_t ins = f->buf[2];
     uint8_t n = (uint8_t)(f->buf[1] - 2u); /* LEN counts INS and CHK */
     struct result res = {0};
-    if (s->update.state != UPDATE_IDLE && ins != INS_PING && ins != INS_READ)
+    if (update_in_session(&s->update) && ins != INS_PING && ins != INS_READ)
         res.err = ERR_INSTRUCTION; /* an update session: the servo only reports */
     else
         execute(s, ins, &f->buf[3], n, broadcast, &res);
