@@ -79,7 +79,7 @@ def test_latched_protection_comes_back_through_servoctl(sim_factory):
     sim = sim_factory("2:foot")
     port = ["--port", sim.url, "--id", "2"]
     err = fails(2, *port, "set", "temperature_limit", "-1")
-    assert "ID 2 is at 0 C now" in one_line(err) and "--force" in err
+    assert "ID 2 is at 25 C now" in one_line(err) and "--force" in err  # register 46 (issue 13)
     assert ok(*port, "get", "temperature_limit", "--raw").strip() == "80"
     ok(*port, "set", "temperature_limit", "-1", "--force")
     assert wait_until(lambda: "over-temperature" in ok(*port, "ping"), timeout=3)
