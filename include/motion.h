@@ -31,6 +31,7 @@ enum homing_status { HOMING_NEVER, HOMING_RUNNING, HOMING_DONE, HOMING_FAILED };
 struct motion {
     struct plan plan;        /* reference (counts x 2^24) */
     struct plan_limits lim;  /* of the running move */
+    uint16_t cruise;         /* its cruise speed, units/s (lim.vmax before the cap) */
     int64_t target;          /* move target, counts x 2^24 */
     int32_t speed_target;    /* speed mode velocity, counts/tick x 2^24 */
     int64_t counts;          /* measured position, unwrapped */

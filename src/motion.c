@@ -79,6 +79,7 @@ static uint8_t acc_reg(const struct servo *s)
 static void set_limits(struct servo *s, uint16_t speed)
 {
     struct motion *m = &s->motion;
+    m->cruise = speed;
     m->lim.vmax = speed_q24(s, speed & 0x7FFFu);
     if (m->lim.vmax < 1)
         m->lim.vmax = 1;
@@ -367,8 +368,11 @@ void motion_on_write(struct servo *s, uint8_t addr, uint8_t n)
         return;
     }
     uint8_t a = acc_reg(s);
-    if ((touches(addr, n, a) || touches(addr, n, (uint8_t)(a + 1u))) && m->mode != MOTION_OFF)
-        set_limits(s, regs_get(&s->regs, REG_MOVING_SPEED));
+    /* New ramps, re-planned at the cruise speed in force (a trajectory point's, a CUSTOM
+     * MOVE's: not register 32's); homing keeps its own. */
+    if ((touches(addr, n, a) || touches(addr, n, (uint8_t)(a + 1u))) && m->mode != MOTION_OFF &&
+        m->mode != MOTION_HOME)
+        set_limits(s, m->cruise);
     if (touches(addr, n, REG_GOAL_POSITION))
         goal_written(s);
     else if (touches(addr, n, REG_MOVING_SPEED))
@@ -614,7 +618,15 @@ static void report(struct servo *s)
     if (speed < INT16_MIN)
         speed = INT16_MIN;
     regs_set(&s->regs, REG_PRESENT_SPEED, (uint16_t)(int16_t)speed);
-    s->regs.mem[REG_MOVING] = (uint8_t)(m->mode != MOTION_OFF && m->mode != MOTION_HOLD);
+    /* Moving (§5.1 register 42, "1 while a motion runs"): a motion is commanded, or the
+     * shaft still turns (coasting, braking, a restart on a turning shaft; the filter
+     * reads exactly 0 once the count has rested), or it settles onto the position held.
+     * So moving 0 means the present position stays what it reads. */
+    bool settling = m->mode == MOTION_HOLD &&
+                    counts_to_units(s, ((m->plan.pos + PLANNER_ONE / 2) >> PLANNER_SHIFT) -
+                                           m->zero) != (int32_t)(int16_t)pos;
+    s->regs.mem[REG_MOVING] =
+        (uint8_t)((m->mode != MOTION_OFF && m->mode != MOTION_HOLD) || m->vel_q8 != 0 || settling);
     int16_t dc = hal_temperature_dc(s->hal); /* 0.1 C; register 46: bit 7 sign, 0-6 C */
     uint32_t deg = ((uint32_t)(dc < 0 ? -dc : dc) + 5u) / 10u;
     s->regs.mem[REG_PRESENT_TEMPERATURE] =
