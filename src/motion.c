@@ -27,6 +27,7 @@
 #define DEBOUNCE_TICKS 5   /* photo switches: stable this long to count */
 #define KI_SHIFT 2         /* integral gain 1/4 per count per tick, only at rest, */
 #define INTEGRAL_MAX 1200  /* worth at most 300 per mille: beats static friction */
+#define HOLD_BAND 1        /* counts: a shaft this near a resting reference is there */
 
 static uint32_t cpr(const struct servo *s)
 {
@@ -511,7 +512,10 @@ static int16_t control(const struct servo *s, struct motion *m)
 {
     int64_t ref = (m->plan.pos + PLANNER_ONE / 2) >> PLANNER_SHIFT;
     int64_t err = ref - m->counts;
-    if (m->plan.vel == 0 && err > -INTEGRAL_MAX && err < INTEGRAL_MAX) {
+    /* Inside HOLD_BAND the integral rests: winding it up through static friction would
+     * nudge the shaft a count at a time long after it stopped (hunting). */
+    if (m->plan.vel == 0 && (err > HOLD_BAND || err < -HOLD_BAND) && err > -INTEGRAL_MAX &&
+        err < INTEGRAL_MAX) {
         m->integral += (int32_t)err;
         if (m->integral > INTEGRAL_MAX)
             m->integral = INTEGRAL_MAX;
@@ -620,11 +624,10 @@ static void report(struct servo *s)
     regs_set(&s->regs, REG_PRESENT_SPEED, (uint16_t)(int16_t)speed);
     /* Moving (§5.1 register 42, "1 while a motion runs"): a motion is commanded, or the
      * shaft still turns (coasting, braking, a restart on a turning shaft; the filter
-     * reads exactly 0 once the count has rested), or it settles onto the position held.
-     * So moving 0 means the present position stays what it reads. */
-    bool settling = m->mode == MOTION_HOLD &&
-                    counts_to_units(s, ((m->plan.pos + PLANNER_ONE / 2) >> PLANNER_SHIFT) -
-                                           m->zero) != (int32_t)(int16_t)pos;
+     * reads exactly 0 once the count has rested), or it is still being brought onto the
+     * position held. So moving 0 means the present position stays what it reads. */
+    int64_t off = ((m->plan.pos + PLANNER_ONE / 2) >> PLANNER_SHIFT) - m->counts;
+    bool settling = m->mode == MOTION_HOLD && (off > HOLD_BAND || off < -HOLD_BAND);
     s->regs.mem[REG_MOVING] =
         (uint8_t)((m->mode != MOTION_OFF && m->mode != MOTION_HOLD) || m->vel_q8 != 0 || settling);
     int16_t dc = hal_temperature_dc(s->hal); /* 0.1 C; register 46: bit 7 sign, 0-6 C */

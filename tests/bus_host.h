@@ -157,13 +157,10 @@ static bool bus_open(const struct board *b)
     return bus_ins(INS_PING, NULL, 0) == 1;
 }
 
-/* Homing (register 24 := 1) with the host polling register 24 every 100 ms until it is
- * no longer running, as servoctl home --wait does (the polls keep the heartbeat fed);
- * returns the status nibble. */
-static uint8_t bus_home(uint32_t timeout_ms)
+/* Wait for homing to end, polling register 24 every 100 ms as servoctl home --wait does
+ * (the polls keep the heartbeat fed); returns the status nibble (1: still running). */
+static uint8_t bus_home_wait(uint32_t timeout_ms)
 {
-    if (bus_w8(REG_HOMING, 1) != 0)
-        return 0xFF;
     uint8_t p[2] = {REG_HOMING, 1};
     for (uint32_t t = 0; t < timeout_ms; t += 100u) {
         bus_run_ms(100);
@@ -171,6 +168,14 @@ static uint8_t bus_home(uint32_t timeout_ms)
             return (uint8_t)(bus_ans[0] >> 4);
     }
     return 1;
+}
+
+/* Homing (register 24 := 1), waited for; returns the status nibble. */
+static uint8_t bus_home(uint32_t timeout_ms)
+{
+    if (bus_w8(REG_HOMING, 1) != 0)
+        return 0xFF;
+    return bus_home_wait(timeout_ms);
 }
 
 #endif
