@@ -21,7 +21,7 @@
 #define BUS_ID 1u
 #define BUS_FAST_CODE 10u       /* register 4: 1792000 baud (§5.2) */
 #define BUS_FAST_BAUD 1792000u
-#define BUS_STEP_US 50u         /* main-loop period of the servo */
+#define BUS_STEP_US 100u        /* main-loop period of the servo */
 #define BUS_ANSWER_US 20000u    /* no answer within this: none comes */
 
 static struct vbus bus;

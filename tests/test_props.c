@@ -34,6 +34,7 @@ static void talk_ms(uint32_t ms)
 
 static void read_table(uint8_t *t)
 {
+    memset(t, 0, REGS_SIZE);
     if (!bus_read_table(t))
         fail_msg("no answer to READ 0..49");
 }
@@ -298,6 +299,12 @@ struct host {                /* what the host knows, from what it sent and read 
 static struct host H;
 static uint32_t prng;
 
+/* How often each property was actually checked, over all sequences (the premise: the
+ * sequences reach the states the properties talk about). */
+static struct {
+    unsigned long p1, p2, p3, p4, p5, p6_rest, p6_moving;
+} checked;
+
 static uint32_t prnd(uint32_t n)
 {
     prng ^= prng << 13;
@@ -406,15 +413,18 @@ static bool observe(void)
     bool quiet = now - H.cmd_us >= 100000u;
     bool rest = now - H.count_since_us >= 100000u;
     /* P1 */
-    if (rest && quiet && !H.run && !H.jammed && !H.homing)
+    if (rest && quiet && !H.run && !H.jammed && !H.homing) {
+        checked.p1++;
         PROP(speed == 0 && moving == 0,
              "P1: at rest for %.0f ms, nothing commanded, but speed %d, moving %u",
              (now - H.count_since_us) / 1e3, speed, moving);
+    }
     /* P2 */
     if (moving) {
         H.m0 = false;
         H.moved_since_goal = true;
     } else if (H.m0 && now - H.m0_us <= 100000u) {
+        checked.p2++;
         PROP(pos == H.m0_pos, "P2: moving 0 at %.3f s with position %d, now %d",
              H.m0_us / 1e6, H.m0_pos, pos);
     } else {
@@ -427,6 +437,7 @@ static bool observe(void)
     if (!moving && H.in_limits && !speed_mode_now() && referenced && !H.homing) {
         int32_t cw = tab16(t, REG_CW_LIMIT), ccw = tab16(t, REG_CCW_LIMIT);
         int32_t p = wh_variant() ? pos : (int32_t)(uint16_t)pos;
+        checked.p3++;
         PROP(p >= cw && p <= ccw, "P3: held at %d, outside the limits [%d, %d]", p, cw, ccw);
     }
     /* P4 */
@@ -438,10 +449,12 @@ static bool observe(void)
         want = 127;
     if (want < -127)
         want = -127;
+    checked.p4++;
     PROP(abs(got - want) <= 1, "P4: sensor %.1f C, register 46 reads %d", dc / 10.0, got);
     /* P5 */
     if (H.goal_set && !moving && H.moved_since_goal && quiet) {
-        uint16_t g = wh_variant() ? (uint16_t)pos : (uint16_t)pos;
+        uint16_t g = (uint16_t)pos;
+        checked.p5++;
         PROP(g == H.goal && tab16(t, REG_GOAL_POSITION) == H.goal,
              "P5: goal %u done: position %u, goal register %u", H.goal, g,
              tab16(t, REG_GOAL_POSITION));
@@ -461,6 +474,7 @@ static bool observe(void)
         bool at_rest = now - H.count_since_us >= 3000u && w == 0.0;
         if (at_rest) {
             double lo = c - (pu + 0.5) * k - 0.51, hi = c - (pu - 0.5) * k + 0.51;
+            checked.p6_rest++;
             if (!H.zero_ok) {
                 H.zlo = lo;
                 H.zhi = hi;
@@ -476,6 +490,7 @@ static bool observe(void)
         } else if (H.zero_ok) {
             double slack = 0.5 + (H.zhi - H.zlo) / (2.0 * k) + w * 0.002 / k + 0.02;
             double pred = (c - 0.5 * (H.zlo + H.zhi)) / k;
+            checked.p6_moving++;
             PROP(fabs(pred - pu) <= slack, "P6: position %d, the shaft at %.2f units", pos,
                  pred);
         }
@@ -559,6 +574,9 @@ static int32_t present_units_read(void)
  * limits (it cannot leave them) or runs to its end (its target is within them). */
 static void move_started(bool goal, uint16_t g)
 {
+    uint8_t t[REGS_SIZE];
+    if (bus_read_table(t)) /* where it starts from (the last read may be old: a silence) */
+        memcpy(H.t, t, sizeof t);
     int32_t p = present_units_read(), cw = tab16(H.t, REG_CW_LIMIT),
             ccw = tab16(H.t, REG_CCW_LIMIT);
     if (!wh_variant())
@@ -589,7 +607,21 @@ static void position_mode(void)
     }
 }
 
-/* One random step: a command (or none), then watching or a silence. */
+/* A host that waits for the end of what it commanded: watch until moving 0 (at most
+ * ms); returns false if a property failed. */
+static bool until_done(uint32_t ms)
+{
+    for (uint32_t t = 0; t < ms; t += P_READ_MS) {
+        if (!watch(P_READ_MS, false))
+            return false;
+        if (t >= 100u && !H.t[REG_MOVING])
+            return watch(150, false); /* and a little beyond: P2, P5 */
+    }
+    return true;
+}
+
+/* One random step: a command (or none), then watching (half the time until the motion
+ * ends) or a silence. */
 static bool step(void)
 {
     uint8_t acc = H.b->variant == VARIANT_BASE ? REG_BASE_ACCELERATION : REG_ACCELERATION;
@@ -781,7 +813,7 @@ static bool step(void)
     } else { /* just watch */
         note(" watch");
     }
-    return watch(20u + prnd(800), false);
+    return prnd(3) == 0u ? until_done(3000) : watch(20u + prnd(800), false);
 }
 
 /* Starting points: each variant powered up (heartbeat on, factory) on the fast link,
@@ -854,7 +886,15 @@ static void observable_properties(void **state)
     }
     print_message("props: %lu sequences from seed %lu, %lu clean, %.0f s of servo time\n",
                   done + (unsigned long)fails, seed0, done, virt);
+    print_message("props: checks: P1 %lu, P2 %lu, P3 %lu, P4 %lu, P5 %lu, P6 %lu at rest + %lu "
+                  "moving\n",
+                  checked.p1, checked.p2, checked.p3, checked.p4, checked.p5, checked.p6_rest,
+                  checked.p6_moving);
     assert_int_equal(fails, 0);
+    if (n >= 100u) { /* premise: every property met its situation, many times */
+        assert_true(checked.p1 > n && checked.p2 > n && checked.p3 > n && checked.p5 > n / 10u);
+        assert_true(checked.p4 > n && checked.p6_rest > n && checked.p6_moving > n);
+    }
 }
 
 int main(void)
