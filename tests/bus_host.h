@@ -63,7 +63,7 @@ static int bus_ins_to(uint8_t id, uint8_t ins, const uint8_t *par, uint8_t n)
     uint32_t have = 0, want = 6;
     uint32_t deadline = bus.now_us + BUS_ANSWER_US, end_us = bus.now_us;
     while (have < want && (int32_t)(deadline - bus.now_us) > 0) {
-        vbus_run_until(&bus, bus.now_us + 10u);
+        vbus_run_until(&bus, bus.now_us + 50u);
         while (have < want && vbus_host_pending(&bus)) {
             const struct vbus_byte *w = vbus_host_next(&bus);
             got[have++] = w->byte;
