@@ -875,6 +875,11 @@ static void observable_properties(void **state)
     unsigned long n = env_or("PROPS_SEQUENCES", 2000), seed0 = env_or("PROPS_SEED", 1);
     unsigned long done = 0;
     double virt = 0;
+    /* The first seed that caught each bug of docs/bugs.md (this generator), always run. */
+    static const uint32_t found[] = {1, 3, 19, 126, 197};
+    for (unsigned i = 0; i < sizeof found / sizeof found[0]; i++)
+        if (!sequence(found[i]))
+            print_message("props: seed %u of docs/bugs.md fails again\n", found[i]);
     for (unsigned long i = 0; i < n && fails < 5; i++) {
         uint32_t t0 = 0;
         (void)t0;
