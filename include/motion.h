@@ -67,14 +67,15 @@ void motion_init(struct servo *s);
 
 /* May a host write of data[0..n) to addr run now? False refuses the whole write with an
  * instruction error: a motion command while a protection unload is latched or (register
- * 49) before homing, or clearing an unload whose condition persists. */
+ * 49) before homing, the angle limits while homing runs (it measures them), or clearing
+ * an unload whose condition persists. */
 bool motion_write_allowed(const struct servo *s, uint8_t addr, const uint8_t *data, uint8_t n);
 
 /* The registers [addr, addr + n) were written by the host and hold their new values. */
 void motion_on_write(struct servo *s, uint8_t addr, uint8_t n);
 
 /* START/END (§4.6): what is 1 or 2 and the servo is in position mode. Returns 0 or
- * ERR_INSTRUCTION. */
+ * ERR_INSTRUCTION (also while homing runs: it sets the zero and the limits). */
 uint8_t motion_start_end(struct servo *s, uint8_t what);
 
 /* TRAJECTORY ACTION (§4.7): the stored trajectory is not empty. Returns 0 or

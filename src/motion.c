@@ -331,6 +331,9 @@ bool motion_write_allowed(const struct servo *s, uint8_t addr, const uint8_t *da
     if (touches(addr, n, REG_GOAL_POSITION) &&
         (unloaded || !referenced_for(s, false)))
         return false;
+    if ((touches(addr, n, REG_CW_LIMIT) || touches(addr, n, REG_CCW_LIMIT)) &&
+        s->motion.mode == MOTION_HOME)
+        return false; /* homing measures the limits: they are its own until it ends */
     if (touches(addr, n, REG_MOVING_SPEED)) {
         uint8_t i = (uint8_t)(REG_MOVING_SPEED - addr);
         bool stop = (proto_get16(&data[i]) & 0x7FFFu) == 0u; /* rule 3: never refused */
@@ -383,6 +386,8 @@ void motion_on_write(struct servo *s, uint8_t addr, uint8_t n)
 uint8_t motion_start_end(struct servo *s, uint8_t what)
 {
     struct motion *m = &s->motion;
+    if (m->mode == MOTION_HOME)
+        return ERR_INSTRUCTION; /* homing sets the zero and the limits itself */
     if (what == 1u) {
         m->zero = m->counts; /* the present position becomes 0 */
         m->plan.pos = m->counts * PLANNER_ONE;
