@@ -914,7 +914,7 @@ static void observable_properties(void **state)
         if (sequence((uint32_t)(seed0 + i)))
             done++;
         virt += bus.now_us / 1e6;
-        if (n >= 10000u && (i + 1u) % 10000u == 0u)
+        if (n >= 10000u && (i + 1u) % 1000u == 0u)
             print_message("props: %lu sequences, %lu clean\n", i + 1u, done);
     }
     print_message("props: %lu sequences from seed %lu, %lu clean, %.0f s of servo time\n",
