@@ -91,6 +91,11 @@ void motion_torque_off(struct servo *s);
 /* RESET: stop everything and forget the homing reference. */
 void motion_reset(struct servo *s);
 
+/* Write the present-state registers (§5.1) from the sensors and the motion state: every
+ * control tick, and after every dispatched packet, so the next READ already sees what a
+ * command changed (moving 1 as soon as a move is commanded, not a tick later). */
+void motion_report(struct servo *s);
+
 /* Main loop: run the control ticks that are due at now_us (1 kHz). */
 void motion_poll(struct servo *s, uint32_t now_us);
 

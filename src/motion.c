@@ -611,7 +611,7 @@ static void tick(struct servo *s)
 }
 
 /* Present-state registers (§5.1), each 16-bit one a single store. */
-static void report(struct servo *s)
+void motion_report(struct servo *s)
 {
     struct motion *m = &s->motion;
     uint16_t pos = (uint16_t)present_units(s);
@@ -653,5 +653,5 @@ void motion_poll(struct servo *s, uint32_t now_us)
     if ((int32_t)(now_us - m->tick_us) >= (int32_t)MOTION_TICK_US)
         m->tick_us = now_us;
     tick(s);
-    report(s);
+    motion_report(s);
 }

@@ -63,9 +63,10 @@ void servo_poll(struct servo *s)
     (void)update_active(&s->update, now); /* a silent session times out */
     const struct frame *f = frame_rx_peek(&s->rx);
     const struct frame_block *blk = frame_rx_peek_block(&s->rx);
-    if (f)
+    if (f) {
         dispatch_frame(s, f);
-    else if (blk)
+        motion_report(s); /* what the command changed is what the next READ sees */
+    } else if (blk)
         (void)loader_update_frame(s, blk->buf, blk->len, blk->status == FRAME_OK, blk->end_us);
     else
         return;

@@ -278,6 +278,29 @@ static void homing_owns_the_limits(void **state)
     assert_int_equal(bus_write(REG_CW_LIMIT, lim, 4), 0); /* and afterwards, as before */
 }
 
+/* Found after the properties, by the question they raise ("moving 0" right after a
+ * command): the present registers were written only by the control tick, so a host that
+ * read moving right after a goal write (fast baud, return delay 0: well within the 1 ms
+ * tick) read 0 - "done" before it started - 18 times in 20. */
+static void moving_reads_1_once_commanded(void **state)
+{
+    (void)state;
+    assert_true(bus_open(&board_foot));
+    assert_int_equal(bus_w8(REG_HEARTBEAT_ENABLE, 0), 0);
+    assert_int_equal(bus_w16(REG_MOVING_SPEED, 90), 0);
+    const uint8_t p[2] = {REG_MOVING, 1};
+    for (uint32_t i = 0; i < 20; i++) {
+        vbus_run_until(&bus, bus.now_us + 1000u + 97u * i); /* every phase of the tick */
+        assert_int_equal(bus_ins(INS_READ, p, 2), 0);
+        assert_int_equal(bus_ans[0], 0); /* premise: at rest */
+        assert_int_equal(bus_w16(REG_GOAL_POSITION, (uint16_t)(i % 2u ? 10u : 50u)), 0);
+        assert_int_equal(bus_ins(INS_READ, p, 2), 0);
+        if (bus_ans[0] != 1u)
+            fail_msg("goal %u written: moving read %u at once", i % 2u ? 10u : 50u, bus_ans[0]);
+        bus_run_ms(1500);
+    }
+}
+
 /* ---------------------------------------------------------------------------------------
  * Observable-behaviour properties (issue 13): random seeded command sequences on every
  * variant, the table read over the bus every few milliseconds, and after every read:
@@ -939,6 +962,7 @@ int main(void)
         cmocka_unit_test(moving_until_the_shaft_rests),
         cmocka_unit_test(ramp_write_keeps_the_cruise_speed),
         cmocka_unit_test(homing_owns_the_limits),
+        cmocka_unit_test(moving_reads_1_once_commanded),
         cmocka_unit_test(observable_properties),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
