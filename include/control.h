@@ -25,6 +25,10 @@ struct control {
 };
 
 /* What bounds the drive: register 12 (0.1 A, 0 = no limit) and the board's duty per A. */
+/* Counts: a shaft this near a resting reference is there (the integral rests, and the
+ * motion layer counts it as settled). */
+#define CONTROL_HOLD_BAND 1
+
 struct control_limits {
     uint8_t current_limit;
     uint16_t duty_per_amp;

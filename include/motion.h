@@ -34,6 +34,7 @@ enum homing_status { HOMING_NEVER, HOMING_RUNNING, HOMING_DONE, HOMING_FAILED };
 struct motion {
     struct plan plan;        /* reference (counts x 2^24) */
     struct plan_limits lim;  /* of the running move */
+    uint16_t cruise;         /* its cruise speed, units/s (lim.vmax before the cap) */
     int64_t target;          /* move target, counts x 2^24 */
     int32_t speed_target;    /* speed mode velocity, counts/tick x 2^24 */
     int64_t zero;            /* counts at position 0 */
@@ -59,14 +60,15 @@ void motion_init(struct servo *s);
 
 /* May a host write of data[0..n) to addr run now? False refuses the whole write with an
  * instruction error: a motion command while a protection unload is latched or (register
- * 49) before homing, or clearing an unload whose condition persists. */
+ * 49) before homing, the angle limits while homing runs (it measures them), or clearing
+ * an unload whose condition persists. */
 bool motion_write_allowed(const struct servo *s, uint8_t addr, const uint8_t *data, uint8_t n);
 
 /* The registers [addr, addr + n) were written by the host and hold their new values. */
 void motion_on_write(struct servo *s, uint8_t addr, uint8_t n);
 
 /* START/END (§4.6): what is 1 or 2 and the servo is in position mode. Returns 0 or
- * ERR_INSTRUCTION. */
+ * ERR_INSTRUCTION (also while homing runs: it sets the zero and the limits). */
 uint8_t motion_start_end(struct servo *s, uint8_t what);
 
 /* TRAJECTORY ACTION (§4.7): the stored trajectory is not empty. Returns 0 or
@@ -84,6 +86,11 @@ void motion_torque_off(struct servo *s);
 
 /* RESET: stop everything and forget the homing reference. */
 void motion_reset(struct servo *s);
+
+/* Write the present-state registers (§5.1) from the sensors and the motion state: every
+ * control tick, and after every dispatched packet, so the next READ already sees what a
+ * command changed (moving 1 as soon as a move is commanded, not a tick later). */
+void motion_report(struct servo *s);
 
 /* Main loop: run the control ticks that are due at now_us (1 kHz). */
 void motion_poll(struct servo *s, uint32_t now_us);

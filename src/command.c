@@ -48,6 +48,9 @@ bool motion_write_allowed(const struct servo *s, uint8_t addr, const uint8_t *da
     if (touches(addr, n, REG_GOAL_POSITION) &&
         (unloaded || !motion_referenced_for(s, false)))
         return false;
+    if ((touches(addr, n, REG_CW_LIMIT) || touches(addr, n, REG_CCW_LIMIT)) &&
+        s->motion.mode == MOTION_HOME)
+        return false; /* homing measures the limits: they are its own until it ends */
     if (touches(addr, n, REG_MOVING_SPEED)) {
         uint8_t i = (uint8_t)(REG_MOVING_SPEED - addr);
         bool stop = proto_speed_is_stop(proto_get16(&data[i])); /* rule 3: never refused */
@@ -85,8 +88,11 @@ void motion_on_write(struct servo *s, uint8_t addr, uint8_t n)
         return;
     }
     uint8_t a = regs_ramp_addr(s->board);
-    if ((touches(addr, n, a) || touches(addr, n, (uint8_t)(a + 1u))) && m->mode != MOTION_OFF)
-        motion_set_limits(s, regs_get(&s->regs, REG_MOVING_SPEED));
+    /* New ramps, re-planned at the cruise speed in force (a trajectory point's, a CUSTOM
+     * MOVE's: not register 32's); homing keeps its own. */
+    if ((touches(addr, n, a) || touches(addr, n, (uint8_t)(a + 1u))) && m->mode != MOTION_OFF &&
+        m->mode != MOTION_HOME)
+        motion_set_limits(s, m->cruise);
     if (touches(addr, n, REG_GOAL_POSITION))
         goal_written(s);
     else if (touches(addr, n, REG_MOVING_SPEED))
@@ -96,6 +102,8 @@ void motion_on_write(struct servo *s, uint8_t addr, uint8_t n)
 uint8_t motion_start_end(struct servo *s, uint8_t what)
 {
     struct motion *m = &s->motion;
+    if (m->mode == MOTION_HOME)
+        return ERR_INSTRUCTION; /* homing sets the zero and the limits itself */
     if (what == 1u) {
         m->zero = m->ctl.counts; /* the present position becomes 0 */
         m->plan.pos = m->ctl.counts * PLANNER_ONE;

@@ -68,7 +68,10 @@ int16_t control_duty(struct control *c, const struct plan *ref, const struct con
 {
     int64_t pos = (ref->pos + PLANNER_ONE / 2) >> PLANNER_SHIFT;
     int64_t err = pos - c->counts;
-    if (ref->vel == 0 && err > -INTEGRAL_MAX && err < INTEGRAL_MAX) {
+    /* Inside the hold band the integral rests: winding it up through static friction
+     * would nudge the shaft a count at a time long after it stopped (hunting). */
+    if (ref->vel == 0 && (err > CONTROL_HOLD_BAND || err < -CONTROL_HOLD_BAND) &&
+        err > -INTEGRAL_MAX && err < INTEGRAL_MAX) {
         c->integral += (int32_t)err;
         if (c->integral > INTEGRAL_MAX)
             c->integral = INTEGRAL_MAX;

@@ -25,6 +25,7 @@ struct scale motion_scale(const struct servo *s)
 void motion_set_limits(struct servo *s, uint16_t speed)
 {
     struct motion *m = &s->motion;
+    m->cruise = speed;
     m->lim.vmax = scale_speed_q24(motion_scale(s), speed & PROTO_SPEED_MAGNITUDE);
     if (m->lim.vmax < 1)
         m->lim.vmax = 1;
@@ -348,10 +349,22 @@ void motion_poll(struct servo *s, uint32_t now_us)
     if ((int32_t)(now_us - m->tick_us) >= (int32_t)MOTION_TICK_US)
         m->tick_us = now_us;
     tick(s);
+    motion_report(s);
+}
+
+void motion_report(struct servo *s)
+{
+    const struct motion *m = &s->motion;
+    /* Moving (§5.1 register 42, "1 while a motion runs"): a motion is commanded, or the
+     * shaft still turns (coasting, braking, a restart on a turning shaft; the filter
+     * reads exactly 0 once the count has rested), or it is still being brought onto the
+     * position held. So moving 0 means the present position stays what it reads. */
+    int64_t off = ((m->plan.pos + PLANNER_ONE / 2) >> PLANNER_SHIFT) - m->ctl.counts;
+    bool settling = m->mode == MOTION_HOLD && (off > CONTROL_HOLD_BAND || off < -CONTROL_HOLD_BAND);
     const struct present_inputs p = {
         .position = motion_present_units(s),
         .speed = scale_speed_units(motion_scale(s), m->ctl.vel_q8),
-        .moving = is_moving(m),
+        .moving = is_moving(m) || m->ctl.vel_q8 != 0 || settling,
         .switches = m->ctl.switches,
         .temperature_dc = hal_temperature_dc(s->hal),
     };

@@ -94,8 +94,10 @@ static void servo_pass(struct servo *s, uint32_t now)
     const struct frame *f = frame_rx_peek(&s->rx);
     if (!f)
         return;
-    if (app)
+    if (app) {
         dispatch_frame(s, f);
+        motion_report(s); /* what the command changed is what the next READ sees */
+    }
     else if (update_is_frame(f->buf, f->len)) /* update mode answers §10 frames only */
         (void)loader_update_frame(s, f);
     frame_rx_release(&s->rx);

@@ -21,7 +21,7 @@
 #define BUS_ID 1u
 #define BUS_FAST_CODE 10u       /* register 4: 1792000 baud (§5.2) */
 #define BUS_FAST_BAUD 1792000u
-#define BUS_STEP_US 50u         /* main-loop period of the servo */
+#define BUS_STEP_US 100u        /* main-loop period of the servo */
 #define BUS_ANSWER_US 20000u    /* no answer within this: none comes */
 
 static struct vbus bus;
@@ -63,7 +63,7 @@ static int bus_ins_to(uint8_t id, uint8_t ins, const uint8_t *par, uint8_t n)
     uint32_t have = 0, want = 6;
     uint32_t deadline = bus.now_us + BUS_ANSWER_US, end_us = bus.now_us;
     while (have < want && (int32_t)(deadline - bus.now_us) > 0) {
-        vbus_run_until(&bus, bus.now_us + 10u);
+        vbus_run_until(&bus, bus.now_us + 50u);
         while (have < want && vbus_host_pending(&bus)) {
             const struct vbus_byte *w = vbus_host_next(&bus);
             got[have++] = w->byte;
@@ -157,13 +157,10 @@ static bool bus_open(const struct board *b)
     return bus_ins(INS_PING, NULL, 0) == 1;
 }
 
-/* Homing (register 24 := 1) with the host polling register 24 every 100 ms until it is
- * no longer running, as servoctl home --wait does (the polls keep the heartbeat fed);
- * returns the status nibble. */
-static uint8_t bus_home(uint32_t timeout_ms)
+/* Wait for homing to end, polling register 24 every 100 ms as servoctl home --wait does
+ * (the polls keep the heartbeat fed); returns the status nibble (1: still running). */
+static uint8_t bus_home_wait(uint32_t timeout_ms)
 {
-    if (bus_w8(REG_HOMING, 1) != 0)
-        return 0xFF;
     uint8_t p[2] = {REG_HOMING, 1};
     for (uint32_t t = 0; t < timeout_ms; t += 100u) {
         bus_run_ms(100);
@@ -171,6 +168,14 @@ static uint8_t bus_home(uint32_t timeout_ms)
             return (uint8_t)(bus_ans[0] >> 4);
     }
     return 1;
+}
+
+/* Homing (register 24 := 1), waited for; returns the status nibble. */
+static uint8_t bus_home(uint32_t timeout_ms)
+{
+    if (bus_w8(REG_HOMING, 1) != 0)
+        return 0xFF;
+    return bus_home_wait(timeout_ms);
 }
 
 #endif

@@ -293,7 +293,8 @@ static struct move_result follow_move(double speed_dps, double acc, double dec)
         fail_msg("%s: the move did not start (mode %u)", B->name, s.motion.mode);
     int64_t g = s.motion.target / PLANNER_ONE;
     assert_true(g * PLANNER_ONE == s.motion.target); /* whole counts */
-    int64_t c0 = s.motion.ctl.counts;
+    int64_t c0 = ref_counts(); /* the reference moves from where it held (the shaft may
+                                  rest a count off it: CONTROL_HOLD_BAND) */
     int dir = g > c0 ? 1 : -1;
     uint32_t t0 = hal.now_us, t_end = 0, t_out = 0;
     r.ideal_ms = ideal_ms(fabs((double)(g - c0)) / COUNTS_PER_DEG, speed_dps, acc, dec);
