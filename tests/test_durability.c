@@ -695,7 +695,7 @@ static uint32_t env_u32(const char *name, uint32_t dflt)
 static void random_sequences_keep_every_acknowledged_write(void **state)
 {
     (void)state;
-    uint32_t n = env_u32("DURABILITY_SEQUENCES", 300u);
+    uint32_t n = env_u32("DURABILITY_SEQUENCES", 1000u);
     uint32_t seed0 = env_u32("DURABILITY_SEED", 1u);
     memset(&tally, 0, sizeof tally);
     for (uint32_t i = 0; i < n; i++) {
