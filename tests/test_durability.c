@@ -168,7 +168,7 @@ struct model {
 /* Figures over all sequences. */
 struct tally {
     uint32_t sequences, frames, changing, answered_in_budget, unanswered_in_budget, deferred,
-        deferred_landed, cuts_between, cuts_mid_frame, cuts_in_flash, restarts, quiet_frames;
+        deferred_landed, refused, cuts_between, cuts_mid_frame, cuts_in_flash, restarts, quiet_frames;
     uint32_t hi_pairs[2][128][128 / 32]; /* CW, CCW: (old high byte, new high byte) seen */
 };
 
@@ -590,6 +590,8 @@ static void run_frame(const struct frame_plan *f, int cut)
     uint32_t gap = frame_rx_gap_us(bus.host_baud); /* the servo never talks sooner */
     uint32_t due = t_end + (f->id == PROTO_ID_BROADCAST ? 0u : delay * 500u + gap) + 1000u;
     bool answered = false;
+    uint8_t ans[8];
+    uint32_t alen = 0;
     while ((int32_t)(bus.now_us - due) < 0 || (int32_t)(bus.now_us - quiet_from) < 3000) {
         uint32_t p0 = hv->flash.programs;
         bool fine = !answered && (int32_t)(bus.now_us - due) < 0;
@@ -606,8 +608,11 @@ static void run_frame(const struct frame_plan *f, int cut)
                 tally.answered_in_budget++;
             }
         }
-        while (vbus_host_pending(&bus))
-            (void)vbus_host_next(&bus);
+        while (vbus_host_pending(&bus)) {
+            uint8_t b = vbus_host_next(&bus)->byte;
+            if (alen < sizeof ans)
+                ans[alen++] = b;
+        }
         if ((int32_t)(bus.wire_end_us - quiet_from) > 0)
             quiet_from = bus.wire_end_us; /* quiet from the end of the last byte */
         if (cut == 2 && (int32_t)(bus.now_us - cut_at) >= 0) {
@@ -618,6 +623,10 @@ static void run_frame(const struct frame_plan *f, int cut)
     }
     if (changed && in_budget && !answered)
         tally.unanswered_in_budget++;
+    if (alen >= 5u && f->ins != INS_PING && (ans[4] & ERR_INSTRUCTION) && changed)
+        fail_seq("a refused frame changed EEPROM values (§3.2: all or nothing)", REGS_SIZE, 0,
+                 1);
+    tally.refused += alen >= 5u && f->ins != INS_PING && (ans[4] & ERR_INSTRUCTION);
     if (!changed && hv->flash.programs != programs)
         fail_seq("a frame that changed no EEPROM value wrote flash records", REGS_SIZE, 0,
                  hv->flash.programs - programs);
@@ -709,12 +718,12 @@ static void random_sequences_keep_every_acknowledged_write(void **state)
             for (int x = 0; x < 4; x++)
                 pairs[w] += (uint32_t)__builtin_popcount(tally.hi_pairs[w][o][x]);
     print_message("%u sequences (seeds %u-%u), %u frames, %u changed EEPROM values: %u answered "
-                  "and %u unanswered within the budget, %u deferred (%u landed on a token); "
+                  "and %u unanswered within the budget, %u deferred (%u landed on a token), %u refused; "
                   "cuts: %u between frames, %u within a frame, %u inside a flash operation; "
                   "%u restarts; high-byte changes seen: CW %u, CCW %u of 16,256 pairs\n",
                   tally.sequences, seed0, seed0 + n - 1u, tally.frames, tally.changing,
                   tally.answered_in_budget, tally.unanswered_in_budget, tally.deferred,
-                  tally.deferred_landed, tally.cuts_between, tally.cuts_mid_frame,
+                  tally.deferred_landed, tally.refused, tally.cuts_between, tally.cuts_mid_frame,
                   tally.cuts_in_flash, tally.restarts, pairs[0], pairs[1]);
     /* The premises: every kind of event happened. */
     assert_true(tally.answered_in_budget > 0u && tally.unanswered_in_budget > 0u);
