@@ -79,7 +79,9 @@ set(image servo-${BOARD})
 add_executable(${image}.elf ${SERVO_PORT_SOURCES}
     hal/stm32f1/motor.c
     hal/stm32f1/main.c
-    hal/stm32f1/image_info.c)
+    hal/stm32f1/image_info.c
+    hal/stm32f1/libc_small.c
+    hal/stm32f1/divmod64.c)
 target_include_directories(${image}.elf PRIVATE hal/stm32f1 board/${BOARD})
 target_link_libraries(${image}.elf PRIVATE servo_core)
 target_compile_definitions(${image}.elf PRIVATE SERVO_BOARD=board_${BOARD}
@@ -107,7 +109,7 @@ add_custom_command(TARGET ${image}.elf POST_BUILD
 set(boot servo-boot-${BOARD})
 add_executable(${boot}.elf ${SERVO_PORT_SOURCES}
     hal/stm32f1/boot_main.c
-    hal/stm32f1/boot_libc.c
+    hal/stm32f1/libc_small.c
     src/frame_rx.c
     src/link.c
     src/proto.c
@@ -120,7 +122,7 @@ add_executable(${boot}.elf ${SERVO_PORT_SOURCES}
     src/servo.c
     board/boards.c)
 target_include_directories(${boot}.elf PRIVATE include hal hal/stm32f1 board/${BOARD})
-set_source_files_properties(hal/stm32f1/boot_libc.c PROPERTIES
+set_source_files_properties(hal/stm32f1/libc_small.c PROPERTIES
                             COMPILE_OPTIONS -fno-tree-loop-distribute-patterns)
 target_compile_definitions(${boot}.elf PRIVATE SERVO_BOOTLOADER SERVO_BOARD=board_${BOARD}
                            SERVO_MODEL=${SERVO_MODEL} SERVO_FW_VERSION=${SERVO_FW_VERSION})

@@ -24,7 +24,7 @@ enum motion_mode {
 };
 
 /* Homing phases and the status nibble of register 24. */
-enum homing_phase { HOME_BACKOFF, HOME_SEEK, HOME_REVERSE };
+enum homing_phase { HOME_BACKOFF, HOME_SEEK, HOME_REVERSE, HOME_END };
 enum homing_status { HOMING_NEVER, HOMING_RUNNING, HOMING_DONE, HOMING_FAILED };
 
 /* State of the motion layer of one servo. */
@@ -37,6 +37,7 @@ struct motion {
     int64_t zero;            /* counts at position 0 */
     int32_t raw;             /* last raw sensor reading */
     int32_t vel_q8;          /* measured velocity, counts/tick x 2^8, filtered */
+    int8_t vel_rem;          /* the filter's division remainder, carried */
     int32_t integral;        /* position error summed while the reference rests */
     uint32_t tick_us;        /* time of the last control tick */
     int16_t duty;            /* last drive */

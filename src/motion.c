@@ -222,7 +222,7 @@ static void homing_tick(struct servo *s)
             m->speed_target = m->lim.vmax;
         }
         break;
-    default:
+    case HOME_REVERSE:
         if (sw & 2u) {
             int32_t end = counts_to_units(s, m->sw_edge - m->zero);
             if (end < 1 || end > 0x7FFF) {
@@ -231,15 +231,18 @@ static void homing_tick(struct servo *s)
             }
             regs_set(&s->regs, REG_CW_LIMIT, 0);
             regs_set(&s->regs, REG_CCW_LIMIT, (uint16_t)end); /* stored at the pass's end */
-            m->referenced = 1;
-            homing_status(s, HOMING_DONE);
             m->target = m->sw_edge * PLANNER_ONE; /* stop and hold at the end itself */
             regs_set(&s->regs, REG_GOAL_POSITION, (uint16_t)end);
-            m->mode = MOTION_MOVE;
-            planner_step_to(&m->plan, m->target, &m->lim);
-            return;
+            m->home_phase = HOME_END;
         }
         break;
+    default: /* HOME_END: switch 2 was seen past its edge: back onto the end, then done */
+        if (planner_step_to(&m->plan, m->target, &m->lim)) {
+            m->referenced = 1;
+            homing_status(s, HOMING_DONE);
+            m->mode = MOTION_HOLD;
+        }
+        return;
     }
     planner_step_speed(&m->plan, m->speed_target, &m->lim);
 }
@@ -475,7 +478,12 @@ static void measure(struct servo *s)
     int32_t delta = (int32_t)((uint32_t)raw - (uint32_t)m->raw) * m->sign;
     m->raw = raw;
     m->counts += delta;
-    m->vel_q8 += (delta * 256 - m->vel_q8) / 8;
+    /* First-order filter, 1/8 per tick, its division remainder carried to the next tick:
+     * no bias, and a shaft at rest reads exactly 0 (truncation alone left up to 7/256 of
+     * a count per tick for ever: 1 unit/s). */
+    int32_t dv = delta * 256 - m->vel_q8 + m->vel_rem;
+    m->vel_q8 += dv / 8;
+    m->vel_rem = (int8_t)(dv % 8);
     uint8_t sw = hal_photo_switches(s->hal) & 3u;
     if (sw != m->sw_raw) {
         m->sw_raw = sw;
@@ -533,10 +541,11 @@ static void tick(struct servo *s)
     uint8_t ev = safety_tick(s, moving);
     if (ev == SAFETY_UNLOAD) {
         coast(s); /* torque off in the tick the fault is seen */
-    } else if (ev == SAFETY_HEARTBEAT && moving) {
+    } else if (ev == SAFETY_HEARTBEAT && moving &&
+               !(m->mode == MOTION_HOME && m->home_phase == HOME_END)) {
         if (m->mode == MOTION_HOME)
             homing_fail(s);
-        stop_soft(s);
+        stop_soft(s); /* (returning onto the end is homing's own stop, §9 step 3) */
     }
     if (m->mode == MOTION_HOME && (s->safety.present & ERR_STALL)) {
         hold_here(s); /* a stall fails homing */
@@ -603,6 +612,10 @@ static void report(struct servo *s)
         speed = INT16_MIN;
     regs_set(&s->regs, REG_PRESENT_SPEED, (uint16_t)(int16_t)speed);
     s->regs.mem[REG_MOVING] = (uint8_t)(m->mode != MOTION_OFF && m->mode != MOTION_HOLD);
+    int16_t dc = hal_temperature_dc(s->hal); /* 0.1 C; register 46: bit 7 sign, 0-6 C */
+    uint32_t deg = ((uint32_t)(dc < 0 ? -dc : dc) + 5u) / 10u;
+    s->regs.mem[REG_PRESENT_TEMPERATURE] =
+        (uint8_t)((deg > 127u ? 127u : deg) | (dc < 0 && deg ? 0x80u : 0u));
 }
 
 void motion_poll(struct servo *s, uint32_t now_us)

@@ -432,13 +432,24 @@ static void replan_mid_move(void **state)
     w8(REG_DECELERATION, 36);
     w16(REG_MOVING_SPEED, 180);
     w16(REG_GOAL_POSITION, 300);
-    run_ms(400);
+    run_ms(800);
+    /* premise: cruising at 180 deg/s, 100 ahead but nearer than the stopping distance
+     * (180^2 / (2 * 360) = 45 degrees) */
+    assert_true(abs(present_speed() - 180) <= 5);
+    assert_true(present() > 100 - 45 && present() < 100);
     int32_t v0 = s.motion.plan.vel;
     w16(REG_GOAL_POSITION, 100); /* behind the stopping point: stop, come back */
     next_tick();
     int32_t dv = s.motion.plan.vel - v0;
     assert_true(dv <= s.motion.lim.dec + s.motion.lim.dec / 500 && -dv <= s.motion.lim.dec);
-    run_ms(100);
+    int32_t far = present();
+    for (int i = 0; i < 600; i++) {
+        run_ms(1);
+        if (present() > far)
+            far = present();
+    }
+    assert_true(far > 100 + 30);    /* it went past 100 ... */
+    assert_true(present_speed() < 0); /* ... and is coming back */
     w16(REG_MOVING_SPEED, 60); /* a lower cruise speed: brake to it */
     w8(REG_DECELERATION, 100);
     struct move_result r = follow_move(60, 360, 1000);
@@ -642,6 +653,10 @@ static const char *brake_then_release_why(const char *from)
 
 static void brake_then_release(const char *from)
 {
+    /* premise: something runs and the shaft turns */
+    if (!s.regs.mem[REG_MOVING] || fabs(omega_dps()) < 20.0)
+        fail_msg("%s: before the brake from %s: moving %u, shaft at %.1f deg/s", B->name, from,
+                 s.regs.mem[REG_MOVING], omega_dps());
     const char *why = brake_then_release_why(from);
     if (why)
         fail_msg("%s", why);
@@ -649,10 +664,14 @@ static void brake_then_release(const char *from)
 
 static void sleep_then_wake(void)
 {
+    double before_dps = omega_dps();
     w8(REG_SLEEP, 1);
     assert_false(hal.motor.enabled);
     assert_int_equal(hal.motor.duty, 0);
     run_ms(2000); /* coasts to rest */
+    if (fabs(omega_dps()) > 1e-6)
+        fail_msg("%s: asleep 2 s after %.1f deg/s, still turning at %.3f deg/s", B->name,
+                 before_dps, omega_dps());
     w8(REG_SLEEP, 0);
     double t = travel_counts();
     run_ms(1500);
@@ -848,8 +867,11 @@ static void rule3_property(void **state)
     for (int i = 0; i < 3; i++)
         if (brake_fail[i])
             print_message("rule 3: first failure: %s\n", first_fail[i]);
-    for (int i = 0; i < 3; i++)
+    for (int i = 0; i < 3; i++) {
         assert_int_equal(brake_fail[i], 0);
+        assert_true(brake_from[i] > 0); /* premise: every kind of start was tried */
+    }
+    assert_true(by_speed0 > 0 && by_sleep > 0);
 }
 
 /* Rule 3, explicitly for each kind of motion: a move, speed mode, a trajectory, a custom
@@ -895,7 +917,14 @@ static void brake_stops_a_coasting_motor(void **state)
     run_ms(5);
     double coast_dps = omega_dps();
     print_message("  brake while coasting at %.0f deg/s\n", coast_dps);
-    brake_then_release("coasting after speed 0");
+    /* premise: coasting (driver off, no drive, no motion running), still fast */
+    assert_false(hal.motor.enabled);
+    assert_int_equal(hal.motor.duty, 0);
+    assert_int_equal(s.motion.mode, MOTION_OFF);
+    assert_true(coast_dps > 500.0);
+    const char *why = brake_then_release_why("coasting after speed 0");
+    if (why)
+        fail_msg("%s", why);
 }
 
 /* §6.3: sleep is torque off; waking starts nothing, even with a move pending. */
@@ -906,6 +935,7 @@ static void sleep_and_wake(void **state)
     w16(REG_MOVING_SPEED, 90);
     w16(REG_GOAL_POSITION, 300);
     run_ms(500);
+    assert_true(omega_dps() > 60.0); /* premise: asleep in the middle of the move */
     sleep_then_wake();
     /* a goal written while asleep is stored only; waking does not chase it */
     w8(REG_SLEEP, 1);
@@ -1033,7 +1063,7 @@ static void custom_move(void **state)
 
 /* Run a trajectory to its end, recording for each point the lowest present speed
  * (register 38, deg/s) while the shaft is within 0.5 degree of it, and whether it came to
- * rest on it. */
+ * rest on it (within OVERSHOOT_MAX_COUNTS). */
 static void run_trajectory(const uint16_t *a, uint8_t n, double *min_at, bool *stopped_at)
 {
     for (uint8_t i = 0; i < n; i++) {
@@ -1047,8 +1077,10 @@ static void run_trajectory(const uint16_t *a, uint8_t n, double *min_at, bool *s
         for (uint8_t i = 0; i < n; i++) {
             if (fabs(here - a[i]) < 0.5 && sp < min_at[i])
                 min_at[i] = sp;
-            if (fabs(here - a[i]) < 0.05 && fabs(omega_dps()) < 1.0)
-                stopped_at[i] = true; /* the shaft itself at rest on the point */
+            if (fabs(here - a[i]) <= OVERSHOOT_MAX_COUNTS / COUNTS_PER_DEG &&
+                fabs(omega_dps()) < 1.0)
+                stopped_at[i] = true; /* the shaft itself at rest on the point (a move's */
+                                      /* overshoot bound: it reverses there at once)   */
         }
     }
     assert_int_equal(s.motion.mode, MOTION_HOLD);
@@ -1176,6 +1208,7 @@ static void trajectories(void **state)
     print_message("  per-point speeds 300/60/300: passing 100 at %.1f, 150 at %.1f deg/s\n",
                   min_at[0], min_at[1]);
     assert_false(stopped[0] || stopped[1]);
+    assert_true(min_at[1] > 0.8 * 60.0 && min_at[1] < 1.2 * 60.0); /* about its own speed */
     assert_int_equal(present(), 200);
 }
 
@@ -1275,6 +1308,11 @@ static void holds_against_gravity(void **state)
     assert_true(llabs(s.motion.counts - c) <= 1);
     assert_int_equal(s.regs.mem[REG_MOVING], 0);
     assert_int_equal(regs_get(&s.regs, REG_TURNED_ANGLE), 180);
+    /* premise: the weight is real: with the drive off (sleep) the arm sags */
+    double t = travel_counts();
+    w8(REG_SLEEP, 1);
+    run_ms(300);
+    assert_true(travel_counts() - t > 45.0);
     hal.motor.p.gravity = 0.0;
 }
 

@@ -136,6 +136,7 @@ static void sync_write_with_l_255(void **state)
     vbus_init(&bus);
     vbus_add(&bus, &board_foot, 1);
     struct servo *s = &bus.node[0].servo;
+    vbus_run_until(&bus, bus.now_us + 10000u); /* the present registers are written */
     uint8_t before[REGS_SIZE];
     memcpy(before, s->regs.mem, sizeof before);
     uint8_t pkt[] = {0xD5, 0x5D, 0xFE, 0x07, 0x83, 0x21, 0xFF, 0x01, 0x02, 0x03, 0};
