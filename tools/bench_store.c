@@ -122,11 +122,11 @@ static int traffic(void)
            bus.now_us / 1000000u);
     printf("  %u packets changed no EEPROM value: %u flash records\n", quiet_packets,
            quiet_programs / 3u);
-    printf("  %u packets changed %u EEPROM values: %u flash records appended + %u values "
-           "written by compactions%s", changing, values, appended, compacted_values,
+    printf("  %u packets changed %u EEPROM values: %u flash records appended + %u written "
+           "by a compaction%s", changing, values, appended, compacted_values,
            appended + compacted_values == values ? " (equal)\n" : " (NOT equal)\n");
-    printf("  (%u compactions: a full page moves the whole image to the next page, %u records "
-           "with the unchanged ones)\n", compactions, compaction_records);
+    printf("  (compactions: %u; each moves the whole image from a full page to the next one: "
+           "%u records with the unchanged values)\n", compactions, compaction_records);
     if (deferred)
         printf("  %u commits deferred by the budget (64, then one per 64 s)\n", deferred);
     return quiet_programs == 0u && deferred == 0u && appended + compacted_values == values ? 0 : 1;
