@@ -521,9 +521,37 @@ static void loader_rules_are_the_tables(void **state)
     }
 }
 
+/* The store's trigger (issue 19): a writable EEPROM register that gets a different value
+ * marks the table; the same value, a RAM register or a read-only one does not. RESET
+ * marks only when some stored value was not already factory. */
+static void changed_eeprom_values_mark_the_table(void **state)
+{
+    (void)state;
+    struct regs r;
+    regs_init(&r, &board_arm);
+    assert_false(regs_take_ee_changed(&r)); /* power-up: nothing to store */
+    regs_set(&r, REG_TEMPERATURE_LIMIT, regs_get(&r, REG_TEMPERATURE_LIMIT));
+    regs_set(&r, REG_GOAL_POSITION, 1234);
+    regs_set(&r, REG_PRESENT_SPEED, 77);
+    regs_set(&r, REG_MODEL_NUMBER, 1); /* read-only EEPROM: not the store's business */
+    assert_false(regs_take_ee_changed(&r));
+    regs_set(&r, REG_CCW_LIMIT, (uint16_t)(regs_get(&r, REG_CCW_LIMIT) ^ 0x0100u)); /* high byte */
+    assert_true(regs_take_ee_changed(&r));
+    assert_false(regs_take_ee_changed(&r)); /* taking clears it */
+    regs_init(&r, &board_arm);
+    regs_reset(&r); /* already factory: nothing */
+    assert_false(regs_take_ee_changed(&r));
+    regs_set(&r, REG_ID, 5);
+    (void)regs_take_ee_changed(&r);
+    regs_reset(&r);
+    assert_true(regs_take_ee_changed(&r));
+    assert_int_equal(r.mem[REG_ID], REGS_FACTORY_ID);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(changed_eeprom_values_mark_the_table),
         cmocka_unit_test(loader_rules_are_the_tables),
         cmocka_unit_test(first_invalid_register),
         cmocka_unit_test(descriptors_are_sane),
