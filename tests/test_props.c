@@ -470,7 +470,12 @@ static bool observe(void)
     /* P1 */
     if (rest && quiet && moves_done && !H.run && !H.jammed && !H.homing) {
         checked.p1++;
-        PROP(speed == 0 && moving == 0,
+        /* Moving stays 1 while the shaft rests more than a count off the position held
+         * (docs/decisions.md): static friction can hold it there until the integral breaks
+         * it free, at most INTEGRAL_MAX / 2 ticks at a 2-count error (600 ms), and then it
+         * moves, so P2 holds. Seed 450595 rested 101 ms 2 counts off, moving 1. */
+        bool settling_ok = now - H.count_since_us < 700000u;
+        PROP(speed == 0 && (moving == 0 || settling_ok),
              "P1: at rest for %.0f ms, nothing commanded, but speed %d, moving %u",
              (now - H.count_since_us) / 1e3, speed, moving);
     }
@@ -947,7 +952,7 @@ static void observable_properties(void **state)
     unsigned long done = 0;
     double virt = 0;
     /* The first seed that caught each bug of docs/bugs.md (this generator), always run. */
-    static const uint32_t found[] = {1, 3, 19, 126, 701, 192599};
+    static const uint32_t found[] = {1, 3, 19, 126, 701, 192599, 450000, 450595};
     for (unsigned i = 0; i < sizeof found / sizeof found[0]; i++)
         if (!sequence(found[i]))
             print_message("props: seed %u of docs/bugs.md fails again\n", found[i]);
