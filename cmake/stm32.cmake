@@ -26,12 +26,14 @@ set(SERVO_APP_MAX_BYTES 26620) # image.h IMAGE_MAX_BYTES: the 26 KiB slot less t
 
 # Passes of -Os that make these images larger, found by building with each one off
 # (make firmware's table): jump threading and the dominator optimisations duplicate
-# blocks to save branches, loop-invariant motion spills registers it hoisted; in the
-# bootloader also VRP and phi-to-conditional rewriting. Only optimisation choices: the
+# blocks to save branches, loop-invariant motion spills registers it hoisted, tree-level
+# tail merging leaves less for the later cross-jumping; in the bootloader also VRP and
+# phi-to-conditional rewriting. Only optimisation choices: the
 # code means the same, and the stack and ISR-in-RAM checks below still hold it.
-set(SERVO_SIZE_OPTIONS_APP -fno-thread-jumps -fno-tree-dominator-opts -fno-move-loop-invariants)
+set(SERVO_SIZE_OPTIONS_APP -fno-thread-jumps -fno-tree-dominator-opts -fno-move-loop-invariants
+    -fno-tree-tail-merge)
 set(SERVO_SIZE_OPTIONS_BOOT -fno-tree-dominator-opts -fno-move-loop-invariants -fno-tree-vrp
-    -fno-ssa-phiopt)
+    -fno-ssa-phiopt -fno-tree-tail-merge)
 
 # -fstack-usage: each function's frame (.su beside its object) for stack_report.py.
 foreach(part bus motion)
