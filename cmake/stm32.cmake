@@ -158,7 +158,7 @@ set_source_files_properties(hal/stm32f1/libc_small.c PROPERTIES
 target_compile_definitions(${boot}.elf PRIVATE SERVO_BOOTLOADER SERVO_BOARD=board_${BOARD}
                            SERVO_MODEL=${SERVO_MODEL} SERVO_FW_VERSION=${SERVO_FW_VERSION})
 servo_link_and_check(${boot} ${SERVO_LDDIR}/${BOARD_MCU}-boot.ld
-    "${CMAKE_BINARY_DIR}/CMakeFiles/${boot}.elf.dir" -DGOAL_FLASH=6144)
+    "${CMAKE_BINARY_DIR}/CMakeFiles/${boot}.elf.dir" -DTARGET_FLASH=5632)
 add_custom_command(TARGET ${boot}.elf POST_BUILD
     COMMAND ${CMAKE_OBJCOPY} -O binary $<TARGET_FILE:${boot}.elf> ${CMAKE_BINARY_DIR}/${boot}.bin
     COMMAND ${CMAKE_OBJCOPY} -O ihex $<TARGET_FILE:${boot}.elf> ${CMAKE_BINARY_DIR}/${boot}.hex
