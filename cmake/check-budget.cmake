@@ -5,7 +5,7 @@
 # and writes one row of make firmware's size table to OUT:
 #   ROW flash ram vectors code+data bss stack flash-budget ram-budget
 # Usage: cmake -DNM=arm-none-eabi-nm -DELF=x.elf -DNAME=servo-arm -DROW=arm -DOUT=x.size
-#              [-DGOAL_FLASH=16384] -P check-budget.cmake
+#              [-DGOAL_FLASH=16384] [-DTARGET_FLASH=5632] -P check-budget.cmake
 execute_process(COMMAND ${NM} ${ELF} OUTPUT_VARIABLE syms RESULT_VARIABLE rc)
 if(NOT rc EQUAL 0)
     message(FATAL_ERROR "nm failed on ${ELF}")
@@ -45,16 +45,20 @@ math(EXPR vectors "${ram} - ${data} - ${bss} - ${stack}") # vector table, alignm
 math(EXPR flash_pct "100 * ${flash} / ${budget_flash}")
 math(EXPR ram_pct "100 * ${ram} / ${budget_ram}")
 
+# GOAL_FLASH: a size goal the image has reached: the build fails past it, so it stays
+# reached. TARGET_FLASH: one it has not reached yet: only reported.
 set(goal "")
-if(DEFINED GOAL_FLASH AND flash GREATER GOAL_FLASH)
-    math(EXPR goal_kib "${GOAL_FLASH} / 1024")
-    set(goal " (over the ${goal_kib} KiB goal)")
+if(DEFINED TARGET_FLASH AND flash GREATER TARGET_FLASH)
+    set(goal " (over the ${TARGET_FLASH} B target)")
 endif()
 message(STATUS "${NAME}: flash ${flash} of ${budget_flash} B (${flash_pct}%)${goal}, "
                "RAM ${ram} of ${budget_ram} B (${ram_pct}%: "
                "vectors ${vectors}, code+data ${data}, bss ${bss}, stack ${stack})")
 file(WRITE ${OUT} "${ROW} ${flash} ${ram} ${vectors} ${data} ${bss} ${stack} "
                 "${budget_flash} ${budget_ram}\n")
+if(DEFINED GOAL_FLASH AND flash GREATER GOAL_FLASH)
+    message(FATAL_ERROR "${NAME}: flash ${flash} B over the ${GOAL_FLASH} B goal")
+endif()
 if(flash GREATER budget_flash)
     message(FATAL_ERROR "${NAME}: flash ${flash} B over the ${budget_flash} B budget")
 endif()

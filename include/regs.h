@@ -94,12 +94,13 @@ enum reg_unit {
 #define REG_V_WH (REG_V(VARIANT_WRIST) | REG_V(VARIANT_FINGER))
 #define REG_V_NOT_WH (REG_V_ALL & ~REG_V_WH)
 
+/* Bit-fields: 8 bytes an entry instead of 12 (the table is in every image's flash). */
 struct reg_desc {
-    uint8_t size; /* 1 or 2 at the register's first address; 0 elsewhere */
-    uint8_t access;
-    uint8_t area;
-    uint8_t variants;
-    uint8_t def_src;
+    uint8_t size : 2; /* 1 or 2 at the register's first address; 0 elsewhere */
+    uint8_t access : 2;  /* enum reg_access */
+    uint8_t area : 2;    /* enum reg_area */
+    uint8_t variants : 5; /* REG_V_ masks of the five variants */
+    uint8_t def_src : 3;  /* enum reg_default */
     uint16_t def;
     uint16_t min;
     uint16_t max;

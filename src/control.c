@@ -7,6 +7,8 @@
  * friction feed-forward, proportional per count of position error, damping per
  * count/tick of speed error. Tuned on the reference gearmotor (hal/host/motor_sim.c). */
 #define KFF 2
+/* KFF x v / 256 is v / (256 / KFF), the same truncation, with no 64-bit product. */
+_Static_assert(256 % KFF == 0, "KFF divides 256");
 #define KFRICTION 30
 #define KP 8
 #define KD 60
@@ -79,14 +81,16 @@ int16_t control_duty(struct control *c, const struct plan *ref, const struct con
             c->integral = -INTEGRAL_MAX;
     }
     int32_t vref_q8 = ref->vel >> (PLANNER_SHIFT - 8);
-    int64_t duty = ((int64_t)KFF * vref_q8) / 256 + (int64_t)KP * err +
+    int64_t duty = vref_q8 / (256 / KFF) + (int64_t)KP * err +
                    /* cppcheck-suppress shiftNegativeLHS ; arithmetic right shift (docs/lint.md) */
                    ((int64_t)KD * (vref_q8 - c->vel_q8)) / 256 + (c->integral >> KI_SHIFT);
     if (ref->vel)
         duty += ref->vel > 0 ? KFRICTION : -KFRICTION;
     if (lim->current_limit) {
-        int64_t emf = ((int64_t)KFF * c->vel_q8) / 256;
-        int64_t band = ((int64_t)lim->current_limit * lim->duty_per_amp * 8) / 100;
+        /* 32 bits hold both: |emf| <= 2^31 / (256 / KFF) and
+         * band <= 255 x 65535 x 8 / 100, their sum well under 2^31. */
+        int32_t emf = c->vel_q8 / (256 / KFF);
+        int32_t band = (int32_t)((uint32_t)lim->current_limit * lim->duty_per_amp * 8u / 100u);
         if (duty > emf + band)
             duty = emf + band;
         if (duty < emf - band)

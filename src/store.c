@@ -185,14 +185,33 @@ static bool write_record(struct store *st, uint8_t p, uint16_t off, uint8_t tag,
 }
 
 /* Addresses of the registers in [from, REGS_SIZE) that the store keeps and that differ
- * between a and b (or all of them when all is set): the next one, or REGS_SIZE. */
-static uint8_t next_reg(const struct board *b, const uint8_t *x, const uint8_t *y, uint8_t from,
-                        bool all)
+ * between x and y (all of them when y is NULL): the next one, or REGS_SIZE. */
+static uint8_t next_reg(const struct board *b, const uint8_t *x, const uint8_t *y, uint8_t from)
 {
     for (uint8_t a = from; a < REGS_SIZE; a++)
-        if (stored(b, a) && (all || memcmp(&x[a], &y[a], regs_table[a].size) != 0))
+        if (stored(b, a) && (!y || memcmp(&x[a], &y[a], regs_table[a].size) != 0))
             return a;
     return REGS_SIZE;
+}
+
+/* Write the registers next_reg() names (against saved, or all when it is NULL) as one
+ * group of records on page p from *off on, advancing *off past each slot written (a torn
+ * slot is skipped, not reused). */
+static bool write_group(struct store *st, uint8_t p, uint16_t *off, const struct regs *r,
+                        const uint8_t *saved, uint32_t seq)
+{
+    uint8_t tag = TAG_FIRST;
+    for (uint8_t a = next_reg(r->board, r->mem, saved, 0); a < REGS_SIZE;) {
+        uint8_t after = next_reg(r->board, r->mem, saved, (uint8_t)(a + regs_table[a].size));
+        bool ok = write_record(st, p, *off, (uint8_t)(tag | (after == REGS_SIZE ? TAG_LAST : 0u)),
+                               a, r->mem, seq);
+        *off = (uint16_t)(*off + STORE_RECORD_BYTES);
+        if (!ok)
+            return false;
+        tag = 0;
+        a = after;
+    }
+    return true;
 }
 
 /* Write the whole image to the next page in rotation; it takes over once committed. */
@@ -214,16 +233,8 @@ static bool compact(struct store *st, const struct regs *r)
         !program(st, p, OFF_CRC, (uint16_t)crc) || !program(st, p, OFF_CRC + 2u, (uint16_t)(crc >> 16)))
         return false;
     uint16_t off = STORE_HEADER_BYTES;
-    uint8_t tag = TAG_FIRST;
-    for (uint8_t a = next_reg(r->board, r->mem, 0, 0, true); a < REGS_SIZE; off += STORE_RECORD_BYTES) {
-        uint8_t after = next_reg(r->board, r->mem, 0, (uint8_t)(a + regs_table[a].size), true);
-        if (!write_record(st, p, off, (uint8_t)(tag | (after == REGS_SIZE ? TAG_LAST : 0u)), a,
-                          r->mem, seq))
-            return false;
-        tag = 0;
-        a = after;
-    }
-    if (!program(st, p, OFF_COMMIT, COMMITTED)) /* the new page counts from here */
+    if (!write_group(st, p, &off, r, NULL, seq) ||
+        !program(st, p, OFF_COMMIT, COMMITTED)) /* the new page counts from here */
         return false;
     st->active = p;
     st->seq = seq;
@@ -235,28 +246,15 @@ static bool compact(struct store *st, const struct regs *r)
 static bool commit(struct store *st, const struct regs *r)
 {
     uint8_t count = 0;
-    for (uint8_t a = next_reg(r->board, r->mem, st->saved, 0, false); a < REGS_SIZE;
-         a = next_reg(r->board, r->mem, st->saved, (uint8_t)(a + regs_table[a].size), false))
+    for (uint8_t a = next_reg(r->board, r->mem, st->saved, 0); a < REGS_SIZE;
+         a = next_reg(r->board, r->mem, st->saved, (uint8_t)(a + regs_table[a].size)))
         count++;
     if (count == 0u)
         return true;
     uint32_t room = (HAL_FLASH_PAGE_BYTES - st->next) / STORE_RECORD_BYTES;
     if (st->active == STORE_NO_PAGE || count > room)
         return compact(st, r);
-    uint8_t tag = TAG_FIRST;
-    for (uint8_t a = next_reg(r->board, r->mem, st->saved, 0, false); a < REGS_SIZE;) {
-        uint8_t after = next_reg(r->board, r->mem, st->saved, (uint8_t)(a + regs_table[a].size),
-                                 false);
-        bool ok = write_record(st, st->active, st->next,
-                               (uint8_t)(tag | (after == REGS_SIZE ? TAG_LAST : 0u)), a, r->mem,
-                               st->seq);
-        st->next = (uint16_t)(st->next + STORE_RECORD_BYTES); /* a torn slot is skipped */
-        if (!ok)
-            return false;
-        tag = 0;
-        a = after;
-    }
-    return true;
+    return write_group(st, st->active, &st->next, r, st->saved, st->seq);
 }
 
 /* Rate limit (see docs/persistence.md): may a commit happen now? Tokens refill one per
@@ -280,7 +278,7 @@ void store_sync(struct store *st, const struct regs *r, uint32_t now_us)
         st->pending = 1; /* whether anything changed is looked at when a commit may run */
         return;
     }
-    if (next_reg(r->board, r->mem, st->saved, 0, false) == REGS_SIZE) {
+    if (next_reg(r->board, r->mem, st->saved, 0) == REGS_SIZE) {
         st->pending = 0;
         return; /* nothing changed: no flash write */
     }
