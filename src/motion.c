@@ -157,10 +157,7 @@ static bool homing_end(struct servo *s)
     }
     regs_set(&s->regs, REG_CW_LIMIT, 0);
     regs_set(&s->regs, REG_CCW_LIMIT, (uint16_t)end);
-    /* Hold at the end as the new CCW limit states it (the switch edge rounded to a whole
-     * unit, less than half a unit away): a shaft resting a count off the raw edge could
-     * read one unit past its own limit at a fine resolution. */
-    m->target = (m->zero + scale_units_to_counts(motion_scale(s), end)) * PLANNER_ONE;
+    m->target = m->ctl.sw_edge * PLANNER_ONE; /* stop and hold at the end itself */
     regs_set(&s->regs, REG_GOAL_POSITION, (uint16_t)end);
     return true;
 }
