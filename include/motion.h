@@ -84,6 +84,9 @@ void motion_custom_move(struct servo *s, const struct custom_move *m);
 /* Torque off at once and stay off until the next motion command (a firmware update). */
 void motion_torque_off(struct servo *s);
 
+/* The present position in the unit of register 13 in force (registers 36 and 40). */
+int32_t motion_position(const struct servo *s);
+
 /* RESET: stop everything and forget the homing reference. */
 void motion_reset(struct servo *s);
 

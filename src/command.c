@@ -165,3 +165,8 @@ void motion_reset(struct servo *s)
     s->motion.referenced = 0; /* §4.5: RESET clears the homing reference */
 }
 
+
+int32_t motion_position(const struct servo *s)
+{
+    return motion_present_units(s);
+}

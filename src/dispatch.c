@@ -45,10 +45,24 @@ uint8_t dispatch_write(struct servo *s, uint8_t addr, const uint8_t *data, uint8
     if (new_res != old_res) {
         /* §5: limits and goal keep meaning the same angles; the trajectory is dropped
          * and the motion layer stops (it sees the write to register 13). */
+        uint16_t was = regs_present_position(r); /* still in the old unit */
+        bool inside = !regs_speed_mode(r) && was >= regs_get(r, REG_CW_LIMIT) &&
+                      was <= regs_get(r, REG_CCW_LIMIT);
         rescale(r, REG_CW_LIMIT, old_res, new_res);
         rescale(r, REG_CCW_LIMIT, old_res, new_res);
         rescale(r, REG_GOAL_POSITION, old_res, new_res);
         traj_clear(&s->traj);
+        /* A shaft within its limits stays within them: a limit rounds to the nearest new
+         * unit, and the position, which nothing moves, may round the other way (homing
+         * holds on the switch edge, up to half a unit past the limit it measured). The
+         * limit then widens by that unit rather than the servo moving on its own. */
+        int32_t here = motion_position(s);
+        if (inside && here >= 0 && here <= 0x7FFF) {
+            if (here > (int32_t)regs_get(r, REG_CCW_LIMIT))
+                regs_set(r, REG_CCW_LIMIT, (uint16_t)here);
+            if (here < (int32_t)regs_get(r, REG_CW_LIMIT))
+                regs_set(r, REG_CW_LIMIT, (uint16_t)here);
+        }
     }
     motion_on_write(s, addr, n);
     return 0;

@@ -56,6 +56,11 @@ void motion_report(struct servo *s)
     (void)s;
 }
 
+int32_t motion_position(const struct servo *s)
+{
+    return regs_present_position(&s->regs); /* this fake's motor never moves */
+}
+
 void motion_init(struct servo *s)
 {
     regs_set(&s->regs, REG_GOAL_POSITION, regs_present_position(&s->regs));
