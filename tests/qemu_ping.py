@@ -25,6 +25,10 @@ import sys
 import tempfile
 import time
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
+                                "tools"))
+import qemu_servo  # noqa: E402  the flash map's symbols and a free port, one copy
+
 DEADLINE_S = 25.0
 BOOT_S = 10.0
 FLASH_BASE = 0x08000000
@@ -46,27 +50,14 @@ def say(msg):
 
 
 def symbols(elf, *names):
-    """Addresses of the flash map's symbols, from the application's symbol table."""
+    """Addresses of the flash map's symbols (tools/qemu_servo.py reads them)."""
     try:
-        out = subprocess.run(["arm-none-eabi-nm", elf], check=True, capture_output=True,
-                             text=True).stdout
-    except (OSError, subprocess.CalledProcessError) as e:
+        return qemu_servo.symbols(elf, *names)
+    except (OSError, subprocess.CalledProcessError, RuntimeError) as e:
         fail(f"arm-none-eabi-nm {elf}: {e}")
-    found = {}
-    for line in out.splitlines():
-        parts = line.split()
-        if len(parts) == 3 and parts[2] in names:
-            found[parts[2]] = int(parts[0], 16)
-    missing = [n for n in names if n not in found]
-    if missing:
-        fail(f"{elf} has no {' '.join(missing)} (linker script?)")
-    return [found[n] for n in names]
 
 
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+free_port = qemu_servo.free_port
 
 
 def transact(sock, frame, want, timeout_s=0.4):
