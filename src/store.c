@@ -189,7 +189,7 @@ static bool write_record(struct store *st, uint8_t p, uint16_t off, uint8_t tag,
 static uint8_t next_reg(const struct board *b, const uint8_t *x, const uint8_t *y, uint8_t from)
 {
     for (uint8_t a = from; a < REGS_SIZE; a++)
-        if (stored(b, a) && (!y || memcmp(&x[a], &y[a], regs_table[a].size) != 0))
+        if (stored(b, a) && (!y || x[a] != y[a] || (regs_table[a].size > 1u && x[a + 1] != y[a + 1])))
             return a;
     return REGS_SIZE;
 }

@@ -52,6 +52,7 @@ bool flash_sim_erase(struct flash_sim *f, uint8_t p)
     if (cut && f->cut_kind == FLASH_CUT_CLEAN)
         return false;
     f->erases[p]++;
+    f->writes[p]++;
     if (cut && f->cut_kind == FLASH_CUT_TORN) {
         /* Half-erased: every half-word has some bits set to 1, the others as they were. */
         for (uint16_t off = 0; off < HAL_FLASH_PAGE_BYTES; off += 2u) {
@@ -75,6 +76,7 @@ bool flash_sim_program(struct flash_sim *f, uint8_t p, uint16_t off, uint16_t va
         return false;
     if (p < HAL_FLASH_PAGES)
         f->programs++;
+    f->writes[p]++;
     uint16_t old = (uint16_t)(f->mem[p][off] | (f->mem[p][off + 1u] << 8));
     uint16_t v = old & value; /* programming only clears bits */
     if (cut && f->cut_kind == FLASH_CUT_TORN)

@@ -22,6 +22,9 @@ enum flash_cut {
 struct flash_sim {
     uint8_t mem[FLASH_SIM_PAGES][HAL_FLASH_PAGE_BYTES]; /* store, both slots, boot record */
     uint32_t erases[FLASH_SIM_PAGES]; /* erase cycles per page */
+    uint32_t writes[FLASH_SIM_PAGES]; /* erases and programs that reached each page (torn
+                                       * ones too), ever: a page whose count is unchanged
+                                       * holds what it held */
     uint32_t ops;                     /* programs + erases since power-on */
     uint32_t programs;                /* half-words programmed into the store's pages, ever
                                        * (power cycles too): the store's records */

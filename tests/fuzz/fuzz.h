@@ -32,7 +32,7 @@ extern const char fuzz_target_name[];
 /* Harness helpers that only loop over bytes (building images, independent CRCs): not
  * traced, they would only slow the fuzzer down. */
 #if defined(__clang__) && __clang_major__ >= 13
-#define FUZZ_NO_COVERAGE __attribute__((no_sanitize("coverage", "address")))
+#define FUZZ_NO_COVERAGE __attribute__((no_sanitize("coverage", "address", "undefined")))
 #else
 #define FUZZ_NO_COVERAGE
 #endif
