@@ -60,9 +60,9 @@ size_table = awk '{ printf "%-12s %7d  %6.1f%%    %6d  %6.1f%%    (%d + %d + %d 
 firmware: deps
 	@for b in $(BOARDS); do $(call fw_build,$$b) || exit 1; done
 	@echo
-	@echo "application  flash B  of 26 KiB-4 (target 16 KiB = 16384 B, not yet reached)  RAM B  of 6 KiB   (vectors + code/data + bss + stack)"
+	@echo "application  flash B  of 26 KiB-4 (goal 16 KiB = 16384 B: the build fails past it)  RAM B  of 6 KiB   (vectors + code/data + bss + stack)"
 	@for b in $(BOARDS); do cat build/stm32-$$b/servo-$$b.size; done | $(size_table)
-	@echo "bootloader   flash B  of 7 KiB (target 5.5 KiB = 5632 B, not yet reached)"
+	@echo "bootloader   flash B  of 7 KiB (goal 5.5 KiB = 5632 B: the build fails past it)"
 	@for b in $(BOARDS); do cat build/stm32-$$b/servo-boot-$$b.size; done | $(size_table)
 	@echo
 	@echo "worst-case stack per entry point (-fstack-usage + call graph; budget 75% of reserved)"

@@ -53,6 +53,13 @@ def main(elf, build_dir, report=None):
             if name not in su or int(size) > su[name][0]:
                 su[name] = (int(size), kind)
 
+    def su_of(name):
+        """The .su entry of a function: under LTO, GCC's clones are named foo.constprop.0
+        or foo.isra.0 in the image and foo.constprop or foo.isra in the .su file."""
+        if name in su:
+            return su[name]
+        return su.get(re.sub(r"\.\d+$", "", name))
+
     funcs = {}  # address -> name
     syms = {}
     for line in run("arm-none-eabi-nm", "--defined-only", elf).splitlines():
@@ -84,7 +91,7 @@ def main(elf, build_dir, report=None):
         prev = op + " " + args
         # Frame of a function GCC did not size (library code): every stack decrement in
         # its body, added up (an upper bound where exit paths repeat a push).
-        if cur not in su:
+        if su_of(cur) is None:
             if op.startswith("push") or (op.startswith("stmdb") and args.startswith("sp!")):
                 regs = re.search(r"\{(.*)\}", args)
                 for r in regs.group(1).split(",") if regs else ():
@@ -94,6 +101,8 @@ def main(elf, build_dir, report=None):
             sub = re.match(r"sub(?:w|\.w)?\s+sp, (?:sp, )?#(\d+)", op + " " + args)
             if sub:
                 frame[cur] += int(sub.group(1))
+            elif re.match(r"(sub|mov)\S*\s+sp, (sp, )?r", op + " " + args):
+                problems.setdefault(cur, []).append(f"stack pointer set from a register ({op} {args})")
             pre = re.search(r"\[sp, #-(\d+)\]!", args)
             if pre:
                 frame[cur] += int(pre.group(1))
@@ -105,8 +114,8 @@ def main(elf, build_dir, report=None):
             problems.setdefault(cur, []).append(f"indirect call ({op} {args})")
 
     def own(name):
-        if name in su:
-            size, kind = su[name]
+        if su_of(name) is not None:
+            size, kind = su_of(name)
             if "dynamic" in kind and "bounded" not in kind:
                 problems.setdefault(name, []).append("dynamic stack frame")
             return size
