@@ -22,33 +22,31 @@
 #include "proto.h"
 #include "servo.h"
 #include "update.h"
+#include "wire_servo.h"
 
-#define BYTE_US 1042u /* 9600 baud, the arm's default */
 #define WIRE_MAX (4u + FRAME_BLOCK_BYTES)
 
-static struct hal hal;
-static struct servo s;
+static struct wire_servo w = {.board = &board_arm};
 static const struct board *const arm = &board_arm;
-static uint32_t resets; /* restarts the servo asked for (hal_restart: update, watchdog) */
 
 /* ---- the record ---------------------------------------------------------------------- */
 
 static uint16_t unconfirmed(void)
 {
     uint16_t end;
-    return boot_unconfirmed(&hal, &end);
+    return boot_unconfirmed(&w.hal, &end);
 }
 
 static uint16_t record_end(void)
 {
     uint16_t end;
-    (void)boot_unconfirmed(&hal, &end);
+    (void)boot_unconfirmed(&w.hal, &end);
     return end;
 }
 
 static const uint8_t *record(void)
 {
-    return hal.flash.mem[HAL_PAGE_BOOTREC];
+    return w.hal.flash.mem[HAL_PAGE_BOOTREC];
 }
 
 static bool record_blank(void)
@@ -70,8 +68,8 @@ static bool record_dirty(void)
 
 static void put_mark(uint16_t off, uint16_t v)
 {
-    hal.flash.mem[HAL_PAGE_BOOTREC][off] = (uint8_t)v;
-    hal.flash.mem[HAL_PAGE_BOOTREC][off + 1u] = (uint8_t)(v >> 8);
+    w.hal.flash.mem[HAL_PAGE_BOOTREC][off] = (uint8_t)v;
+    w.hal.flash.mem[HAL_PAGE_BOOTREC][off + 1u] = (uint8_t)(v >> 8);
 }
 
 /* A blank flash with a small valid application (the record tests run the bootloader's
@@ -79,74 +77,27 @@ static void put_mark(uint16_t off, uint16_t v)
 static void small_app(void)
 {
     static uint8_t app[1100];
-    hal_host_init(&hal);
+    hal_host_init(&w.hal);
     hal_host_image_build(app, sizeof app, arm->model_number, 1, 2);
-    hal_host_program_app(&hal, app, sizeof app);
+    hal_host_program_app(&w.hal, app, sizeof app);
     /* The boot_start() calls of these tests stand for starts the watchdog ended: the
      * ones that count (a start the power ended does not: see the bus tests). */
-    hal.power_reset = false;
+    w.hal.power_reset = false;
 }
 
 /* ---- a servo on the bus ---------------------------------------------------------------- */
 
-static void power_on(void)
-{
-    hal_host_reboot(&hal);
-    servo_power_on(&s, arm, &hal);
-}
-
-static void factory(void)
-{
-    hal_host_init(&hal);
-    hal_host_attach_board(&hal, arm);
-    hal_host_program_factory(&hal, arm);
-    resets = 0;
-    power_on();
-}
-
-static void step(uint32_t us)
-{
-    hal.now_us += us;
-    servo_step(&s);
-    if (hal.restart_requested) {
-        resets++;
-        power_on();
-    }
-}
-
 static void run(uint32_t us)
 {
     for (uint32_t t = 0; t < us; t += 1000u)
-        step(1000);
-}
-
-/* Put bytes on the wire at 9600 baud, then run wait_us in 100 us steps; the answer. */
-static uint16_t xfer_wait(const uint8_t *out, uint16_t n, uint8_t *ans, uint32_t wait_us)
-{
-    uint32_t seen = hal.log_len;
-    for (uint16_t i = 0; i < n; i++) {
-        hal.now_us += BYTE_US;
-        servo_rx_isr(&s, out[i]);
-        servo_step(&s);
-    }
-    for (uint32_t t = 0; t < wait_us; t += 100u)
-        step(100);
-    uint16_t got = 0;
-    while (seen < hal.log_len && got < 64u)
-        ans[got++] = hal_host_tx(&hal, seen++)->byte;
-    return got;
-}
-
-static uint16_t xfer(const uint8_t *out, uint16_t n, uint8_t *ans)
-{
-    return xfer_wait(out, n, ans, 60000u); /* 8 ms delay + an answer, with margin */
+        wire_step(&w, 1000);
 }
 
 static bool pinged(uint8_t id)
 {
     uint8_t pkt[8], ans[64];
     uint16_t len = proto_build_packet(pkt, id, INS_PING, 0, 0);
-    return xfer(pkt, len, ans) == 7u;
+    return wire_xfer(&w, pkt, len, ans) == 7u;
 }
 
 static uint8_t version_of(uint8_t id)
@@ -154,7 +105,7 @@ static uint8_t version_of(uint8_t id)
     uint8_t pkt[8], ans[64];
     const uint8_t params[2] = {REG_FIRMWARE_VERSION, 1};
     uint16_t len = proto_build_packet(pkt, id, INS_READ, params, 2);
-    assert_int_equal(xfer(pkt, len, ans), 7u);
+    assert_int_equal(wire_xfer(&w, pkt, len, ans), 7u);
     return ans[5];
 }
 
@@ -198,7 +149,7 @@ static void expect_answer(uint16_t n, uint8_t id, const uint8_t *data, uint8_t d
 {
     uint8_t ans[64], want[16];
     uint16_t wn = proto_build_packet(want, id, 0, data, dn);
-    uint16_t got = xfer(wire, n, ans);
+    uint16_t got = wire_xfer(&w, wire, n, ans);
     assert_int_equal(got, wn);
     assert_memory_equal(ans, want, wn);
 }
@@ -243,9 +194,9 @@ static uint8_t img[IMG_LEN];
 static void test_torn_marks_keep_their_kind(void **state)
 {
     (void)state;
-    hal_host_init(&hal);
+    hal_host_init(&w.hal);
     for (uint32_t x = 0; x < 0x100u; x++) {
-        memset(hal.flash.mem[HAL_PAGE_BOOTREC], 0xFF, HAL_FLASH_PAGE_BYTES);
+        memset(w.hal.flash.mem[HAL_PAGE_BOOTREC], 0xFF, HAL_FLASH_PAGE_BYTES);
         put_mark(0, BOOT_MARK_CONFIRM); /* a confirmed start before */
         put_mark(2, BOOT_MARK_START);
         put_mark(4, (uint16_t)(BOOT_MARK_START | x)); /* a START, torn */
@@ -261,26 +212,26 @@ static void test_torn_marks_keep_their_kind(void **state)
 static void test_start_and_confirm_marks(void **state)
 {
     (void)state;
-    factory(); /* power_on: boot_start wrote the first START */
+    wire_factory(&w); /* power_on: boot_start wrote the first START */
     assert_int_equal(unconfirmed(), 1);
     assert_int_equal(record()[0] | record()[1] << 8, BOOT_MARK_START);
-    assert_true(boot_confirm(&hal, false));
+    assert_true(boot_confirm(&w.hal, false));
     assert_int_equal(unconfirmed(), 0);
     assert_int_equal(record()[2] | record()[3] << 8, BOOT_MARK_CONFIRM);
     assert_int_equal(record_end(), 4);
-    assert_true(boot_confirm(&hal, false)); /* nothing to confirm: nothing written */
+    assert_true(boot_confirm(&w.hal, false)); /* nothing to confirm: nothing written */
     assert_int_equal(record_end(), 4);
     /* Three starts with no confirm, each ended by the watchdog: the fourth is refused,
      * the image stays installed. */
-    hal.power_reset = false;
+    w.hal.power_reset = false;
     for (uint16_t n = 1; n <= BOOT_STARTS_MAX; n++) {
-        assert_true(boot_start(&hal, arm->model_number));
+        assert_true(boot_start(&w.hal, arm->model_number));
         assert_int_equal(unconfirmed(), n);
     }
-    uint32_t ops = hal.flash.ops;
-    assert_false(boot_start(&hal, arm->model_number));
-    assert_int_equal(hal.flash.ops, ops); /* refusing writes nothing */
-    assert_true(image_valid(&hal, HAL_PAGE_APP, arm->model_number, 0));
+    uint32_t ops = w.hal.flash.ops;
+    assert_false(boot_start(&w.hal, arm->model_number));
+    assert_int_equal(w.hal.flash.ops, ops); /* refusing writes nothing */
+    assert_true(image_valid(&w.hal, HAL_PAGE_APP, arm->model_number, 0));
 }
 
 /* ---- a good image -------------------------------------------------------------------- */
@@ -289,42 +240,42 @@ static void test_start_and_confirm_marks(void **state)
 static void test_good_image_confirms_at_first_answer(void **state)
 {
     (void)state;
-    factory();
-    assert_false(s.in_loader);
-    assert_true(hal.watchdog_started); /* the bootloader's, before the jump */
+    wire_factory(&w);
+    assert_false(w.s.in_loader);
+    assert_true(w.hal.watchdog_started); /* the bootloader's, before the jump */
     run(50000);
     assert_int_equal(unconfirmed(), 1);
     uint8_t pkt[8];
     uint16_t n = proto_build_packet(pkt, 1, INS_PING, 0, 0);
     for (uint16_t i = 0; i < n; i++) {
-        hal.now_us += BYTE_US;
-        servo_rx_isr(&s, pkt[i]);
-        servo_step(&s);
+        w.hal.now_us += WIRE_BYTE_US;
+        servo_rx_isr(&w.s, pkt[i]);
+        servo_step(&w.s);
     }
-    uint32_t sent = hal.sends;
-    while (hal.sends == sent) /* the return delay */
-        step(100);
-    while (hal_uart_tx_busy(&hal)) {
+    uint32_t sent = w.hal.sends;
+    while (w.hal.sends == sent) /* the return delay */
+        wire_step(&w, 100);
+    while (hal_uart_tx_busy(&w.hal)) {
         assert_int_equal(unconfirmed(), 1); /* the answer is still on the wire */
-        step(100);
+        wire_step(&w, 100);
     }
-    step(100);
+    wire_step(&w, 100);
     assert_int_equal(unconfirmed(), 0);
-    assert_true(s.confirmed);
+    assert_true(w.s.confirmed);
 }
 
 /* With nobody talking to it, it confirms after BOOT_CONFIRM_US of its main loop. */
 static void test_good_image_confirms_after_a_while(void **state)
 {
     (void)state;
-    factory();
+    wire_factory(&w);
     run(BOOT_CONFIRM_US - 10000u);
     assert_int_equal(unconfirmed(), 1);
-    assert_false(s.confirmed);
+    assert_false(w.s.confirmed);
     run(20000);
     assert_int_equal(unconfirmed(), 0);
-    assert_true(s.confirmed);
-    assert_int_equal(resets, 0);
+    assert_true(w.s.confirmed);
+    assert_int_equal(w.resets, 0);
 }
 
 /* 400 power cycles, confirmed either way: never update mode; the application erases the
@@ -332,10 +283,10 @@ static void test_good_image_confirms_after_a_while(void **state)
 static void test_good_image_never_falls_back(void **state)
 {
     (void)state;
-    factory();
-    uint32_t erases = hal.flash.erases[HAL_PAGE_BOOTREC];
+    wire_factory(&w);
+    uint32_t erases = w.hal.flash.erases[HAL_PAGE_BOOTREC];
     for (uint32_t i = 0; i < 400u; i++) {
-        assert_false(s.in_loader);
+        assert_false(w.s.in_loader);
         assert_int_equal(unconfirmed(), 1);
         if (i % 2u)
             assert_true(pinged(1));
@@ -343,81 +294,81 @@ static void test_good_image_never_falls_back(void **state)
             run(BOOT_CONFIRM_US + 1000u);
         assert_int_equal(unconfirmed(), 0);
         assert_true(record_end() < BOOT_TIDY_BYTES + 4u);
-        power_on();
+        wire_power_on(&w);
     }
-    assert_int_equal(hal.flash.erases[HAL_PAGE_BOOTREC] - erases, 400u / (BOOT_TIDY_BYTES / 4u));
-    assert_int_equal(resets, 0);
+    assert_int_equal(w.hal.flash.erases[HAL_PAGE_BOOTREC] - erases, 400u / (BOOT_TIDY_BYTES / 4u));
+    assert_int_equal(w.resets, 0);
 }
 
 /* ---- an image that hangs at start ------------------------------------------------------ */
 
-/* Installed over the bus, it hangs: the watchdog resets it three times, then the servo
+/* Installed over the bus, it hangs: the watchdog w.resets it three times, then the servo
  * stays in update mode, also across power cycles, answering only the update; a good
  * image then installs, starts and confirms. */
 static void test_hanging_image_leaves_update_mode_reachable(void **state)
 {
     (void)state;
-    factory();
+    wire_factory(&w);
     assert_true(pinged(1));
     hal_host_image_build(img, IMG_LEN, arm->model_number, 7, 3);
     hal_host_image_hang(img, IMG_LEN);
-    assert_true(image_valid(&hal, HAL_PAGE_APP, arm->model_number, 0));
+    assert_true(image_valid(&w.hal, HAL_PAGE_APP, arm->model_number, 0));
     send_image(1, img, IMG_LEN);
-    step(50000); /* the ACK is out: restart, install, start it */
-    assert_int_equal(resets, 1);
-    assert_true(s.hung);
-    assert_true(image_valid(&hal, HAL_PAGE_APP, arm->model_number, 0)); /* a valid image */
+    wire_step(&w, 50000); /* the ACK is out: restart, install, start it */
+    assert_int_equal(w.resets, 1);
+    assert_true(w.s.hung);
+    assert_true(image_valid(&w.hal, HAL_PAGE_APP, arm->model_number, 0)); /* a valid image */
     assert_int_equal(unconfirmed(), 1); /* the install emptied the record */
     for (uint16_t start = 2; start <= BOOT_STARTS_MAX; start++) {
-        run(SERVO_WATCHDOG_US); /* never fed: the watchdog resets it */
-        assert_int_equal(resets, start);
-        assert_true(s.hung);
+        run(SERVO_WATCHDOG_US); /* never fed: the watchdog w.resets it */
+        assert_int_equal(w.resets, start);
+        assert_true(w.s.hung);
         assert_int_equal(unconfirmed(), start);
     }
     run(SERVO_WATCHDOG_US);
-    assert_true(s.in_loader); /* the fourth boot: update mode */
-    assert_true(hal.watchdog_started);
-    uint32_t r = resets;
+    assert_true(w.s.in_loader); /* the fourth boot: update mode */
+    assert_true(w.hal.watchdog_started);
+    uint32_t r = w.resets;
     run(2000000);
-    assert_int_equal(resets, r); /* it stays there, fed */
+    assert_int_equal(w.resets, r); /* it stays there, fed */
     /* A power cycle gives the image another try (a start the power ended proves
      * nothing); the watchdog ends three more, and update mode is back. */
-    power_on();
-    assert_true(s.hung);
+    wire_power_on(&w);
+    assert_true(w.s.hung);
     assert_int_equal(unconfirmed(), 1);
     run(BOOT_STARTS_MAX * SERVO_WATCHDOG_US + SERVO_WATCHDOG_US / 2);
-    assert_true(s.in_loader);
+    assert_true(w.s.in_loader);
     assert_int_equal(unconfirmed(), BOOT_STARTS_MAX);
     /* What the host sees: PING unanswered, the §10 handshake answered 'C'. */
     assert_false(pinged(1));
     send_enter(1);
     hal_host_image_build(img, IMG_LEN, arm->model_number, 8, 4);
     send_image(1, img, IMG_LEN);
-    step(50000);
-    assert_false(s.in_loader);
-    assert_false(s.hung);
+    wire_step(&w, 50000);
+    assert_false(w.s.in_loader);
+    assert_false(w.s.hung);
     assert_int_equal(unconfirmed(), 1);
     assert_int_equal(version_of(1), 8);
     assert_int_equal(unconfirmed(), 0); /* confirmed by that answer */
-    power_on();
-    assert_false(s.in_loader);
+    wire_power_on(&w);
+    assert_false(w.s.in_loader);
 }
 
 /* The same image programmed at the factory (no install to empty the record). */
 static void test_hanging_factory_image(void **state)
 {
     (void)state;
-    hal_host_init(&hal);
-    hal_host_attach_board(&hal, arm);
+    hal_host_init(&w.hal);
+    hal_host_attach_board(&w.hal, arm);
     static uint8_t big[HAL_HOST_FACTORY_BYTES];
     hal_host_image_build(big, sizeof big, arm->model_number, SERVO_FW_VERSION, 1);
     hal_host_image_hang(big, sizeof big);
-    hal_host_program_app(&hal, big, sizeof big);
-    resets = 0;
-    power_on();
+    hal_host_program_app(&w.hal, big, sizeof big);
+    w.resets = 0;
+    wire_power_on(&w);
     run(5 * SERVO_WATCHDOG_US);
-    assert_int_equal(resets, BOOT_STARTS_MAX);
-    assert_true(s.in_loader);
+    assert_int_equal(w.resets, BOOT_STARTS_MAX);
+    assert_true(w.s.in_loader);
 }
 
 /* A start the power cut short (a robot switched off within BOOT_CONFIRM_US, before any
@@ -426,11 +377,11 @@ static void test_hanging_factory_image(void **state)
 static void test_short_power_ups_never_lock_a_good_image(void **state)
 {
     (void)state;
-    factory();
+    wire_factory(&w);
     for (int i = 0; i < 3 * (int)BOOT_STARTS_MAX; i++) {
         run(1000000);
-        power_on();
-        assert_false(s.in_loader);
+        wire_power_on(&w);
+        assert_false(w.s.in_loader);
         assert_int_equal(unconfirmed(), 1); /* this start only */
     }
     assert_true(pinged(1));
@@ -447,14 +398,14 @@ static void test_tidy_waits_for_quiet(void **state)
         put_mark(off, BOOT_MARK_START);
         put_mark((uint16_t)(off + 2u), BOOT_MARK_CONFIRM);
     }
-    assert_true(boot_start(&hal, arm->model_number));
+    assert_true(boot_start(&w.hal, arm->model_number));
     assert_int_equal(unconfirmed(), 1);
-    assert_false(boot_confirm(&hal, false));
+    assert_false(boot_confirm(&w.hal, false));
     assert_int_equal(unconfirmed(), 0);
     assert_int_equal(record_end(), BOOT_TIDY_BYTES + 4u);
-    assert_false(boot_confirm(&hal, false));
+    assert_false(boot_confirm(&w.hal, false));
     assert_int_equal(record_end(), BOOT_TIDY_BYTES + 4u); /* not written twice */
-    assert_true(boot_confirm(&hal, true));
+    assert_true(boot_confirm(&w.hal, true));
     assert_true(record_blank());
 }
 
@@ -467,10 +418,10 @@ static void test_full_record(void **state)
         put_mark(off, BOOT_MARK_START);
         put_mark((uint16_t)(off + 2u), BOOT_MARK_CONFIRM);
     }
-    uint32_t ops = hal.flash.ops;
-    assert_true(boot_start(&hal, arm->model_number));
-    assert_int_equal(hal.flash.ops, ops);
-    assert_true(boot_confirm(&hal, true));
+    uint32_t ops = w.hal.flash.ops;
+    assert_true(boot_start(&w.hal, arm->model_number));
+    assert_int_equal(w.hal.flash.ops, ops);
+    assert_true(boot_confirm(&w.hal, true));
     assert_true(record_blank());
 }
 
@@ -485,25 +436,25 @@ static void test_torn_erase_leftovers(void **state)
     put_mark(2, BOOT_MARK_CONFIRM);
     put_mark(8, BOOT_MARK_START); /* survivors past two erased half-words */
     put_mark(10, BOOT_MARK_START);
-    assert_true(boot_start(&hal, arm->model_number));
+    assert_true(boot_start(&w.hal, arm->model_number));
     assert_int_equal(record_end(), 6);
     assert_int_equal(unconfirmed(), 1);
     assert_true(record_dirty());
-    assert_true(boot_confirm(&hal, false)); /* C at 6 joins 8 and 10; C again at 12 */
+    assert_true(boot_confirm(&w.hal, false)); /* C at 6 joins 8 and 10; C again at 12 */
     assert_int_equal(unconfirmed(), 0);
     assert_int_equal(record_end(), 14);
     assert_false(record_dirty());
 
-    memset(hal.flash.mem[HAL_PAGE_BOOTREC], 0xFF, HAL_FLASH_PAGE_BYTES);
+    memset(w.hal.flash.mem[HAL_PAGE_BOOTREC], 0xFF, HAL_FLASH_PAGE_BYTES);
     put_mark(0, BOOT_MARK_START);
     put_mark(2, BOOT_MARK_CONFIRM);
     put_mark(10, BOOT_MARK_START); /* further away: not reached */
-    assert_true(boot_start(&hal, arm->model_number));
-    assert_false(boot_confirm(&hal, false));
+    assert_true(boot_start(&w.hal, arm->model_number));
+    assert_false(boot_confirm(&w.hal, false));
     assert_int_equal(unconfirmed(), 0);
     assert_int_equal(record_end(), 8);
     assert_true(record_dirty());
-    assert_true(boot_confirm(&hal, true));
+    assert_true(boot_confirm(&w.hal, true));
     assert_true(record_blank());
 }
 
@@ -513,9 +464,9 @@ static void test_torn_erase_leftovers(void **state)
  * confirm (and the erase when due), with the servo always quiet. A cut ends the boot. */
 static bool one_boot(void)
 {
-    bool started = boot_start(&hal, arm->model_number);
+    bool started = boot_start(&w.hal, arm->model_number);
     if (started)
-        while (hal.flash.powered && !boot_confirm(&hal, true)) {
+        while (w.hal.flash.powered && !boot_confirm(&w.hal, true)) {
         }
     return started;
 }
@@ -531,26 +482,26 @@ static void test_power_cut_at_every_record_operation(void **state)
     small_app();
     static uint8_t blank_record[HAL_FLASH_PAGE_BYTES];
     memset(blank_record, 0xFF, sizeof blank_record);
-    hal.flash.ops = 0;
+    w.hal.flash.ops = 0;
     for (uint32_t i = 0; i < HISTORY; i++)
         assert_true(one_boot());
-    uint32_t total = hal.flash.ops;
+    uint32_t total = w.hal.flash.ops;
     assert_int_equal(total, 2u * HISTORY + 1u); /* a start, a confirm each, one erase */
 
     uint32_t scenarios = 0;
     for (uint8_t kind = FLASH_CUT_CLEAN; kind <= FLASH_CUT_TORN; kind++) {
         for (uint32_t k = 1; k <= total; k++) {
-            memcpy(hal.flash.mem[HAL_PAGE_BOOTREC], blank_record, HAL_FLASH_PAGE_BYTES);
-            flash_sim_power_on(&hal.flash);
-            hal.flash.cut_kind = kind;
-            hal.flash.cut_at = k;
+            memcpy(w.hal.flash.mem[HAL_PAGE_BOOTREC], blank_record, HAL_FLASH_PAGE_BYTES);
+            flash_sim_power_on(&w.hal.flash);
+            w.hal.flash.cut_kind = kind;
+            w.hal.flash.cut_at = k;
             for (uint32_t i = 0; i < HISTORY; i++) {
                 uint16_t before = unconfirmed();
                 if (!one_boot())
                     fail_msg("cut %u (kind %u) at operation %u: start %u refused", scenarios,
                              kind, k, i);
-                if (!hal.flash.powered) { /* this boot ended in the cut */
-                    flash_sim_power_on(&hal.flash);
+                if (!w.hal.flash.powered) { /* this boot ended in the cut */
+                    flash_sim_power_on(&w.hal.flash);
                     if (unconfirmed() > before + 1u)
                         fail_msg("cut at operation %u (kind %u): %u unconfirmed, was %u", k,
                                  kind, unconfirmed(), before);
@@ -574,21 +525,21 @@ static void test_cut_counts_at_most_one_start(void **state)
     for (uint8_t kind = FLASH_CUT_CLEAN; kind <= FLASH_CUT_TORN; kind++) {
         for (uint32_t trial = 0; trial < 64u; trial++) {
             small_app();
-            hal.flash.rng ^= trial * 0x9E3779B9u; /* other torn bits each trial */
-            assert_true(boot_start(&hal, arm->model_number));
-            assert_true(boot_start(&hal, arm->model_number));
-            hal.flash.ops = 0;
-            hal.flash.cut_kind = kind;
-            hal.flash.cut_at = 1;
-            (void)boot_start(&hal, arm->model_number);
-            flash_sim_power_on(&hal.flash);
+            w.hal.flash.rng ^= trial * 0x9E3779B9u; /* other torn bits each trial */
+            assert_true(boot_start(&w.hal, arm->model_number));
+            assert_true(boot_start(&w.hal, arm->model_number));
+            w.hal.flash.ops = 0;
+            w.hal.flash.cut_kind = kind;
+            w.hal.flash.cut_at = 1;
+            (void)boot_start(&w.hal, arm->model_number);
+            flash_sim_power_on(&w.hal.flash);
             uint16_t n = unconfirmed();
             assert_true(n == 2u || n == 3u);
             if (kind == FLASH_CUT_CLEAN)
                 assert_int_equal(n, 2);
             if (kind == FLASH_CUT_DONE)
                 assert_int_equal(n, 3);
-            assert_int_equal(boot_start(&hal, arm->model_number), n < BOOT_STARTS_MAX);
+            assert_int_equal(boot_start(&w.hal, arm->model_number), n < BOOT_STARTS_MAX);
         }
     }
 }
@@ -603,8 +554,8 @@ static void test_install_empties_record_through_cuts(void **state)
     static uint8_t new_img[2200];
     small_app();
     for (uint16_t n = 0; n < BOOT_STARTS_MAX; n++)
-        assert_true(boot_start(&hal, arm->model_number));
-    assert_false(boot_start(&hal, arm->model_number));
+        assert_true(boot_start(&w.hal, arm->model_number));
+    assert_false(boot_start(&w.hal, arm->model_number));
     /* Stage and mark an image as a verified session does. */
     hal_host_image_build(new_img, sizeof new_img, arm->model_number, 5, 9);
     for (uint8_t p = 0; (uint32_t)p * HAL_FLASH_PAGE_BYTES < sizeof new_img; p++) {
@@ -613,28 +564,28 @@ static void test_install_empties_record_through_cuts(void **state)
         memset(page, 0xFF, sizeof page);
         memcpy(page, &new_img[at],
                sizeof new_img - at < HAL_FLASH_PAGE_BYTES ? sizeof new_img - at : HAL_FLASH_PAGE_BYTES);
-        assert_true(image_write_page(&hal, (uint8_t)(HAL_PAGE_STAGING + p), page,
+        assert_true(image_write_page(&w.hal, (uint8_t)(HAL_PAGE_STAGING + p), page,
                                      HAL_FLASH_PAGE_BYTES));
     }
-    assert_true(hal_flash_program(&hal, IMAGE_MARK_PAGE, IMAGE_MARK_OFFSET, IMAGE_MARK_SET));
-    memcpy(staged_flash, hal.flash.mem, sizeof staged_flash);
-    hal.flash.ops = 0;
-    assert_true(boot_start(&hal, arm->model_number));
-    uint32_t total = hal.flash.ops;
+    assert_true(hal_flash_program(&w.hal, IMAGE_MARK_PAGE, IMAGE_MARK_OFFSET, IMAGE_MARK_SET));
+    memcpy(staged_flash, w.hal.flash.mem, sizeof staged_flash);
+    w.hal.flash.ops = 0;
+    assert_true(boot_start(&w.hal, arm->model_number));
+    uint32_t total = w.hal.flash.ops;
     assert_int_equal(unconfirmed(), 1);
     for (uint8_t kind = FLASH_CUT_CLEAN; kind <= FLASH_CUT_TORN; kind++) {
         for (uint32_t k = 1; k <= total; k++) {
-            memcpy(hal.flash.mem, staged_flash, sizeof staged_flash);
-            flash_sim_power_on(&hal.flash);
-            hal.flash.cut_kind = kind;
-            hal.flash.cut_at = k;
-            (void)boot_start(&hal, arm->model_number);
-            assert_false(hal.flash.powered);
-            flash_sim_power_on(&hal.flash);
-            if (!boot_start(&hal, arm->model_number))
+            memcpy(w.hal.flash.mem, staged_flash, sizeof staged_flash);
+            flash_sim_power_on(&w.hal.flash);
+            w.hal.flash.cut_kind = kind;
+            w.hal.flash.cut_at = k;
+            (void)boot_start(&w.hal, arm->model_number);
+            assert_false(w.hal.flash.powered);
+            flash_sim_power_on(&w.hal.flash);
+            if (!boot_start(&w.hal, arm->model_number))
                 fail_msg("cut at install operation %u (kind %u): still locked", k, kind);
             assert_true(unconfirmed() >= 1u && unconfirmed() <= 2u);
-            assert_memory_equal(hal.flash.mem[HAL_PAGE_APP], new_img, HAL_FLASH_PAGE_BYTES);
+            assert_memory_equal(w.hal.flash.mem[HAL_PAGE_APP], new_img, HAL_FLASH_PAGE_BYTES);
         }
     }
 }

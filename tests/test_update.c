@@ -19,12 +19,11 @@
 #include "proto.h"
 #include "servo.h"
 #include "update.h"
+#include "wire_servo.h"
 
-#define BYTE_US 1042u /* 9600 baud, the arm's default */
 #define WIRE_MAX (4u + FRAME_BLOCK_BYTES)
 
-static struct hal hal;
-static struct servo s;
+static struct wire_servo w = {.board = &board_arm};
 static const struct board *const arm = &board_arm;
 
 /* ---- frames --------------------------------------------------------------------- */
@@ -106,58 +105,13 @@ static uint8_t blocks_of(uint32_t len)
 
 /* ---- a servo on the bus ------------------------------------------------------------ */
 
-static void power_on(void)
-{
-    hal_host_reboot(&hal);
-    servo_power_on(&s, arm, &hal);
-}
-
-/* A servo fresh from the factory: version SERVO_FW_VERSION in the application slot. */
-static void factory(void)
-{
-    hal_host_init(&hal);
-    hal_host_attach_board(&hal, arm);
-    hal_host_program_factory(&hal, arm);
-    power_on();
-}
-
-static void step(uint32_t us)
-{
-    hal.now_us += us;
-    servo_step(&s);
-    if (hal.restart_requested)
-        power_on();
-}
-
-/* Put bytes on the wire at 9600 baud, then run up to wait_us and collect the answer. */
-static uint16_t xfer_wait(const uint8_t *out, uint16_t n, uint8_t *ans, uint32_t wait_us)
-{
-    uint32_t seen = hal.log_len;
-    for (uint16_t i = 0; i < n; i++) {
-        hal.now_us += BYTE_US;
-        servo_rx_isr(&s, out[i]);
-        servo_step(&s);
-    }
-    for (uint32_t t = 0; t < wait_us; t += 100u)
-        step(100);
-    uint16_t got = 0;
-    while (seen < hal.log_len && got < 64u)
-        ans[got++] = hal_host_tx(&hal, seen++)->byte;
-    return got;
-}
-
-static uint16_t xfer(const uint8_t *out, uint16_t n, uint8_t *ans)
-{
-    return xfer_wait(out, n, ans, 60000u); /* 8 ms delay + an answer, with margin */
-}
-
 /* Send and require exactly the status packet `D5 5D id LEN 00 data CHK`. */
 static void expect_answer(const uint8_t *out, uint16_t n, uint8_t id, const uint8_t *data,
                           uint8_t dn)
 {
     uint8_t ans[64], want[16];
     uint16_t wn = proto_build_packet(want, id, 0, data, dn);
-    uint16_t got = xfer(out, n, ans);
+    uint16_t got = wire_xfer(&w, out, n, ans);
     assert_int_equal(got, wn);
     assert_memory_equal(ans, want, wn);
 }
@@ -189,7 +143,7 @@ static void read_regs(uint8_t id, uint8_t addr, uint8_t n, uint8_t *out)
     uint8_t pkt[8], ans[64];
     const uint8_t params[2] = {addr, n};
     uint16_t len = proto_build_packet(pkt, id, INS_READ, params, 2);
-    uint16_t got = xfer(pkt, len, ans);
+    uint16_t got = wire_xfer(&w, pkt, len, ans);
     assert_int_equal(got, 6u + n);
     assert_int_equal(ans[4], 0); /* ERR */
     memcpy(out, &ans[5], n);
@@ -207,21 +161,21 @@ static void write_reg(uint8_t id, uint8_t addr, uint8_t value)
     uint8_t pkt[8], ans[64];
     const uint8_t params[2] = {addr, value};
     uint16_t len = proto_build_packet(pkt, id, INS_WRITE, params, 2);
-    (void)xfer(pkt, len, ans);
+    (void)wire_xfer(&w, pkt, len, ans);
 }
 
 static bool pinged(uint8_t id)
 {
     uint8_t pkt[8], ans[64];
     uint16_t len = proto_build_packet(pkt, id, INS_PING, 0, 0);
-    return xfer(pkt, len, ans) == 7u;
+    return wire_xfer(&w, pkt, len, ans) == 7u;
 }
 
 static bool app_holds(const uint8_t *img, uint32_t len)
 {
     for (uint32_t at = 0; at < len; at += HAL_FLASH_PAGE_BYTES) {
         uint32_t n = len - at < HAL_FLASH_PAGE_BYTES ? len - at : HAL_FLASH_PAGE_BYTES;
-        if (memcmp(hal.flash.mem[HAL_PAGE_APP + at / HAL_FLASH_PAGE_BYTES], &img[at], n) != 0)
+        if (memcmp(w.hal.flash.mem[HAL_PAGE_APP + at / HAL_FLASH_PAGE_BYTES], &img[at], n) != 0)
             return false;
     }
     return true;
@@ -234,7 +188,7 @@ static uint8_t img[IMAGE_MAX_BYTES + 1u];
  * and its header ACKed. */
 static void begin_session(uint32_t len, uint16_t model, uint8_t version, uint32_t seed)
 {
-    factory();
+    wire_factory(&w);
     hal_host_image_build(img, len, model, version, seed);
     send_enter(1);
     expect_answer(wire, header_frame(wire, 1, len), 1, ACK_C, 2);
@@ -255,11 +209,11 @@ static void test_crc_check_values(void **state)
 static void test_vector_rows(void **state)
 {
     (void)state;
-    factory();
+    wire_factory(&w);
     uint8_t ans[64];
     static const uint8_t enter[] = {0xD5, 0x5D, 0x01, 0x03, 0xFF, 0xFC, 0xFF};
     static const uint8_t enter_ans[] = {0xD5, 0x5D, 0x01, 0x03, 0x00, 0x43, 0x47};
-    assert_int_equal(xfer(enter, sizeof enter, ans), sizeof enter_ans);
+    assert_int_equal(wire_xfer(&w, enter, sizeof enter, ans), sizeof enter_ans);
     assert_memory_equal(ans, enter_ans, sizeof enter_ans);
     hal_host_image_build(img, 2000, arm->model_number, 2, 5);
     expect_answer(wire, header_frame(wire, 1, 2000), 1, ACK_C, 2);
@@ -267,7 +221,7 @@ static void test_vector_rows(void **state)
     expect_answer(wire, data_frame(wire, 1, img, 2000, 2), 1, ACK, 1);
     static const uint8_t eof[] = {0xD5, 0x5D, 0x01, 0x04, 0xFF, 0xFE, 0x04, 0x06};
     static const uint8_t eof_ans[] = {0xD5, 0x5D, 0x01, 0x04, 0x00, 0x06, 0x43, 0x4E};
-    assert_int_equal(xfer(eof, sizeof eof, ans), sizeof eof_ans);
+    assert_int_equal(wire_xfer(&w, eof, sizeof eof, ans), sizeof eof_ans);
     assert_memory_equal(ans, eof_ans, sizeof eof_ans);
 }
 
@@ -275,22 +229,22 @@ static void test_vector_rows(void **state)
 static void test_session_installs_new_image(void **state)
 {
     (void)state;
-    factory();
+    wire_factory(&w);
     assert_int_equal(version_of(1), SERVO_FW_VERSION);
     write_reg(1, REG_RETURN_DELAY, 4); /* settings that must survive the update */
     write_reg(1, REG_ID, 7);
     hal_host_image_build(img, IMG_LEN, arm->model_number, 9, 1);
     send_image(7, img, IMG_LEN);
-    step(50000); /* the restart happens once the ACK is out */
-    assert_false(s.in_loader);
+    wire_step(&w, 50000); /* the restart happens once the ACK is out */
+    assert_false(w.s.in_loader);
     assert_true(app_holds(img, IMG_LEN));
     assert_true(pinged(7));
     assert_int_equal(version_of(7), 9);
-    assert_int_equal(s.regs.mem[REG_RETURN_DELAY], 4);
+    assert_int_equal(w.s.regs.mem[REG_RETURN_DELAY], 4);
     /* The staged copy is consumed: a later power cycle installs nothing. */
-    uint32_t erases = hal.flash.erases[HAL_PAGE_APP];
-    power_on();
-    assert_int_equal(hal.flash.erases[HAL_PAGE_APP], erases);
+    uint32_t erases = w.hal.flash.erases[HAL_PAGE_APP];
+    wire_power_on(&w);
+    assert_int_equal(w.hal.flash.erases[HAL_PAGE_APP], erases);
     assert_int_equal(version_of(7), 9);
 }
 
@@ -298,12 +252,12 @@ static void test_session_installs_new_image(void **state)
 static void test_answered_whatever_status_level(void **state)
 {
     (void)state;
-    factory();
+    wire_factory(&w);
     write_reg(1, REG_STATUS_RETURN_LEVEL, 0);
     uint8_t ans[64];
     const uint8_t params[2] = {REG_ID, 1};
     uint16_t n = proto_build_packet(wire, 1, INS_READ, params, 2);
-    assert_int_equal(xfer(wire, n, ans), 0);
+    assert_int_equal(wire_xfer(&w, wire, n, ans), 0);
     send_enter(1);
 }
 
@@ -329,15 +283,15 @@ static void test_nak_resend_and_repeat(void **state)
     wire[n - 1u] ^= 0x01u;
     expect_answer(wire, n, 1, NAK, 1);
     expect_answer(wire, data_frame(wire, 1, img, 3000, 1), 1, ACK, 1);
-    uint32_t erases = hal.flash.erases[HAL_PAGE_STAGING];
+    uint32_t erases = w.hal.flash.erases[HAL_PAGE_STAGING];
     expect_answer(wire, data_frame(wire, 1, img, 3000, 1), 1, ACK, 1); /* repeated */
-    assert_int_equal(hal.flash.erases[HAL_PAGE_STAGING], erases);
+    assert_int_equal(w.hal.flash.erases[HAL_PAGE_STAGING], erases);
     expect_answer(wire, data_frame(wire, 1, img, 3000, 2), 1, ACK, 1);
     expect_answer(wire, data_frame(wire, 1, img, 3000, 3), 1, ACK, 1);
     expect_answer(wire, eof_frame(wire, 1), 1, ACK_C, 2);
     expect_answer(wire, eof_frame(wire, 1), 1, ACK_C, 2); /* EOF's ACK lost: again */
     expect_answer(wire, batch_end_frame(wire, 1), 1, ACK, 1);
-    step(50000);
+    wire_step(&w, 50000);
     assert_int_equal(version_of(1), 3);
     /* The host missed the last ACK and resends the end of batch to the new firmware. */
     expect_answer(wire, batch_end_frame(wire, 1), 1, ACK, 1);
@@ -350,8 +304,8 @@ static void assert_old_firmware_runs(void)
     hal_host_image_build(factory_img, sizeof factory_img, arm->model_number, SERVO_FW_VERSION, 1);
     assert_true(pinged(1));
     assert_int_equal(version_of(1), SERVO_FW_VERSION);
-    power_on();
-    assert_false(s.in_loader);
+    wire_power_on(&w);
+    assert_false(w.s.in_loader);
     assert_true(app_holds(factory_img, sizeof factory_img));
     assert_int_equal(version_of(1), SERVO_FW_VERSION);
 }
@@ -359,7 +313,7 @@ static void assert_old_firmware_runs(void)
 static void test_refuses_too_large(void **state)
 {
     (void)state;
-    factory();
+    wire_factory(&w);
     send_enter(1);
     expect_answer(wire, header_frame(wire, 1, IMAGE_MAX_BYTES + 1u), 1, CAN, 1);
     expect_answer(wire, data_frame(wire, 1, img, 2000, 1), 1, CAN, 1); /* session over */
@@ -432,9 +386,9 @@ static void test_padding_never_sets_the_install_mark(void **state)
         memcpy(d, &img[at], n);
         expect_answer(wire, block_frame(wire, 1, PROTO_UPDATE_TYPE_DATA, num, d), 1, ACK, 1);
     }
-    assert_false(image_marked(&hal)); /* every block in, nothing verified yet */
-    step(UPDATE_TIMEOUT_US + 100000u); /* the host walks away */
-    assert_false(image_marked(&hal));
+    assert_false(image_marked(&w.hal)); /* every block in, nothing verified yet */
+    wire_step(&w, UPDATE_TIMEOUT_US + 100000u); /* the host walks away */
+    assert_false(image_marked(&w.hal));
     assert_old_firmware_runs(); /* and the power cycle in it installs nothing */
 }
 
@@ -442,11 +396,11 @@ static void test_padding_never_sets_the_install_mark(void **state)
 static void test_other_ids_ignored(void **state)
 {
     (void)state;
-    factory();
+    wire_factory(&w);
     uint8_t ans[64];
-    assert_int_equal(xfer(wire, enter_frame(wire, 2), ans), 0);
-    assert_int_equal(xfer(wire, enter_frame(wire, PROTO_ID_BROADCAST), ans), 0);
-    assert_int_equal(s.update.state, UPDATE_IDLE);
+    assert_int_equal(wire_xfer(&w, wire, enter_frame(wire, 2), ans), 0);
+    assert_int_equal(wire_xfer(&w, wire, enter_frame(wire, PROTO_ID_BROADCAST), ans), 0);
+    assert_int_equal(w.s.update.state, UPDATE_IDLE);
 }
 
 /* No motion during an update: FC turns the torque off, motion commands are refused
@@ -454,36 +408,36 @@ static void test_other_ids_ignored(void **state)
 static void test_motor_off_during_session(void **state)
 {
     (void)state;
-    hal_host_init(&hal);
-    hal_host_attach_board(&hal, &board_base);
-    hal_host_program_factory(&hal, &board_base);
-    hal_host_reboot(&hal);
-    servo_power_on(&s, &board_base, &hal);
+    hal_host_init(&w.hal);
+    hal_host_attach_board(&w.hal, &board_base);
+    hal_host_program_factory(&w.hal, &board_base);
+    hal_host_reboot(&w.hal);
+    servo_power_on(&w.s, &board_base, &w.hal);
     write_reg(1, REG_HEARTBEAT_ENABLE, 0);
     uint8_t ans[64];
     const uint8_t speed[3] = {REG_MOVING_SPEED, 100, 0};
     uint16_t n = proto_build_packet(wire, 1, INS_WRITE, speed, 3);
-    (void)xfer(wire, n, ans);
-    step(200000);
-    assert_true(hal.motor.enabled);
-    assert_int_not_equal(hal.motor.duty, 0);
+    (void)wire_xfer(&w, wire, n, ans);
+    wire_step(&w, 200000);
+    assert_true(w.hal.motor.enabled);
+    assert_int_not_equal(w.hal.motor.duty, 0);
     expect_answer(wire, enter_frame(wire, 1), 1, READY, 1);
-    assert_false(hal.motor.enabled);
-    assert_int_equal(hal.motor.duty, 0);
+    assert_false(w.hal.motor.enabled);
+    assert_int_equal(w.hal.motor.duty, 0);
     n = proto_build_packet(wire, 1, INS_WRITE, speed, 3);
-    assert_int_equal(xfer(wire, n, ans), 6);
+    assert_int_equal(wire_xfer(&w, wire, n, ans), 6);
     assert_int_equal(ans[4], ERR_INSTRUCTION);
-    step(500000);
-    assert_false(hal.motor.enabled);
+    wire_step(&w, 500000);
+    assert_false(w.hal.motor.enabled);
     assert_true(pinged(1));
     for (uint32_t t = 0; t < UPDATE_TIMEOUT_US; t += 10000u)
-        step(10000);
-    assert_false(hal.motor.enabled); /* the end of a session moves nothing by itself */
+        wire_step(&w, 10000);
+    assert_false(w.hal.motor.enabled); /* the end of a session moves nothing by itself */
     n = proto_build_packet(wire, 1, INS_WRITE, speed, 3);
-    assert_int_equal(xfer(wire, n, ans), 6);
+    assert_int_equal(wire_xfer(&w, wire, n, ans), 6);
     assert_int_equal(ans[4] & ERR_INSTRUCTION, 0);
-    step(200000);
-    assert_true(hal.motor.enabled);
+    wire_step(&w, 200000);
+    assert_true(w.hal.motor.enabled);
 }
 
 /* A damaged application: the bootloader stays in update mode at the stored ID and baud,
@@ -491,21 +445,21 @@ static void test_motor_off_during_session(void **state)
 static void test_update_mode_when_application_damaged(void **state)
 {
     (void)state;
-    factory();
+    wire_factory(&w);
     write_reg(1, REG_ID, 9);
-    hal.flash.mem[HAL_PAGE_APP + 3u][17] ^= 0x20u;
-    power_on();
-    assert_true(s.in_loader);
+    w.hal.flash.mem[HAL_PAGE_APP + 3u][17] ^= 0x20u;
+    wire_power_on(&w);
+    assert_true(w.s.in_loader);
     assert_false(pinged(9));
     uint8_t ans[64];
     const uint8_t params[2] = {REG_ID, 1};
     uint16_t n = proto_build_packet(wire, 9, INS_READ, params, 2);
-    assert_int_equal(xfer(wire, n, ans), 0);
-    assert_int_equal(xfer(wire, enter_frame(wire, 1), ans), 0); /* not its ID */
+    assert_int_equal(wire_xfer(&w, wire, n, ans), 0);
+    assert_int_equal(wire_xfer(&w, wire, enter_frame(wire, 1), ans), 0); /* not its ID */
     hal_host_image_build(img, IMG_LEN, arm->model_number, 6, 8);
     send_image(9, img, IMG_LEN);
-    step(50000);
-    assert_false(s.in_loader);
+    wire_step(&w, 50000);
+    assert_false(w.s.in_loader);
     assert_true(pinged(9));
     assert_int_equal(version_of(9), 6);
 }
@@ -514,13 +468,13 @@ static void test_update_mode_when_application_damaged(void **state)
 static void test_receiver_oversize_only_for_data_blocks(void **state)
 {
     (void)state;
-    struct frame_rx *rx = &s.rx;
+    struct frame_rx *rx = &w.s.rx;
     uint32_t now = 0;
     frame_rx_init(rx, 9600);
     hal_host_image_build(img, 2000, arm->model_number, 2, 5);
     uint16_t n = data_frame(wire, 1, img, 2000, 1);
     for (uint16_t i = 0; i < n; i++)
-        frame_rx_byte(rx, wire[i], now += BYTE_US);
+        frame_rx_byte(rx, wire[i], now += WIRE_BYTE_US);
     const struct frame *b = frame_rx_peek(rx);
     assert_non_null(b);
     assert_ptr_equal(b, &rx->slot[FRAME_BLOCK]); /* the block buffer, not a slot */
@@ -532,7 +486,7 @@ static void test_receiver_oversize_only_for_data_blocks(void **state)
      * the rest of the bytes are not a frame. */
     wire[6] = PROTO_UPDATE_TYPE_HEADER;
     for (uint16_t i = 0; i < n; i++)
-        frame_rx_byte(rx, wire[i], now += BYTE_US);
+        frame_rx_byte(rx, wire[i], now += WIRE_BYTE_US);
     const struct frame *f = frame_rx_peek(rx);
     assert_non_null(f);
     assert_int_equal(f->len, FRAME_BYTES);
@@ -547,7 +501,7 @@ static void test_receiver_oversize_only_for_data_blocks(void **state)
     uint8_t params[253] = {REG_GOAL_POSITION};
     n = proto_build_packet(wire, 1, INS_WRITE, params, sizeof params);
     for (uint16_t i = 0; i < n; i++)
-        frame_rx_byte(rx, wire[i], now += BYTE_US);
+        frame_rx_byte(rx, wire[i], now += WIRE_BYTE_US);
     f = frame_rx_peek(rx);
     assert_non_null(f);
     assert_int_equal(f->len, FRAME_BYTES);
@@ -565,20 +519,20 @@ static bool session_direct(const uint8_t *im, uint32_t len)
     uint8_t ans[2], n;
     static uint8_t fr[WIRE_MAX];
     uint16_t fn = enter_frame(fr, 1);
-    (void)update_frame(&u, &hal, arm->model_number, &fr[2], (uint16_t)(fn - 2u), true, 0, ans, &n);
+    (void)update_frame(&u, &w.hal, arm->model_number, &fr[2], (uint16_t)(fn - 2u), true, 0, ans, &n);
     fn = header_frame(fr, 1, len);
-    (void)update_frame(&u, &hal, arm->model_number, &fr[2], (uint16_t)(fn - 2u), true, 0, ans, &n);
+    (void)update_frame(&u, &w.hal, arm->model_number, &fr[2], (uint16_t)(fn - 2u), true, 0, ans, &n);
     for (uint8_t b = 1; b <= blocks_of(len); b++) {
         fn = data_frame(fr, 1, im, len, b);
-        (void)update_frame(&u, &hal, arm->model_number, &fr[2], (uint16_t)(fn - 2u), true, 0,
+        (void)update_frame(&u, &w.hal, arm->model_number, &fr[2], (uint16_t)(fn - 2u), true, 0,
                            ans, &n);
         if (ans[0] != UPDATE_ACK)
             return false;
     }
     fn = eof_frame(fr, 1);
-    (void)update_frame(&u, &hal, arm->model_number, &fr[2], (uint16_t)(fn - 2u), true, 0, ans, &n);
+    (void)update_frame(&u, &w.hal, arm->model_number, &fr[2], (uint16_t)(fn - 2u), true, 0, ans, &n);
     fn = batch_end_frame(fr, 1);
-    return update_frame(&u, &hal, arm->model_number, &fr[2], (uint16_t)(fn - 2u), true, 0, ans,
+    return update_frame(&u, &w.hal, arm->model_number, &fr[2], (uint16_t)(fn - 2u), true, 0, ans,
                         &n) == UPDATE_RESTART;
 }
 
@@ -589,8 +543,8 @@ static uint8_t before[FLASH_SIM_PAGES][HAL_FLASH_PAGE_BYTES];
 /* Power comes back (the cut cleared) and the bootloader decides. */
 static bool cut_boot(void)
 {
-    flash_sim_power_on(&hal.flash);
-    return boot_install(&hal, arm->model_number);
+    flash_sim_power_on(&w.hal.flash);
+    return boot_install(&w.hal, arm->model_number);
 }
 
 /* What must hold after any cut, once the power is back: a valid application that is
@@ -600,21 +554,21 @@ static void assert_boots_old_or_new(uint32_t cut)
     bool ok = cut_boot();
     if (!ok || !(app_holds(old_img, CUT_LEN) || app_holds(new_img, CUT_LEN)))
         fail_msg("cut at operation %u: the servo does not boot the old or the new image", cut);
-    assert_memory_equal(hal.flash.mem, before, HAL_FLASH_PAGES * HAL_FLASH_PAGE_BYTES);
+    assert_memory_equal(w.hal.flash.mem, before, HAL_FLASH_PAGES * HAL_FLASH_PAGE_BYTES);
 }
 
 static void cut_setup(void)
 {
-    hal_host_init(&hal);
+    hal_host_init(&w.hal);
     hal_host_image_build(old_img, CUT_LEN, arm->model_number, 1, 11);
     hal_host_image_build(new_img, CUT_LEN, arm->model_number, 2, 12);
-    hal_host_program_app(&hal, old_img, CUT_LEN);
+    hal_host_program_app(&w.hal, old_img, CUT_LEN);
     for (uint16_t off = 0; off < 64u; off += 2u) /* something in the store pages */
-        (void)hal_flash_program(&hal, 1, off, (uint16_t)(0x1234u + off));
+        (void)hal_flash_program(&w.hal, 1, off, (uint16_t)(0x1234u + off));
     /* An earlier update left its install mark (its staged copy is consumed): the
      * session must clear the mark first, and that erase is cut too. */
-    (void)hal_flash_program(&hal, IMAGE_MARK_PAGE, IMAGE_MARK_OFFSET, IMAGE_MARK_SET);
-    memcpy(before, hal.flash.mem, sizeof before);
+    (void)hal_flash_program(&w.hal, IMAGE_MARK_PAGE, IMAGE_MARK_OFFSET, IMAGE_MARK_SET);
+    memcpy(before, w.hal.flash.mem, sizeof before);
 }
 
 /* Every operation of a session, then of the install at the next boot, interrupted in
@@ -623,32 +577,32 @@ static void test_power_cut_at_every_flash_operation(void **state)
 {
     (void)state;
     cut_setup();
-    hal.flash.ops = 0;
+    w.hal.flash.ops = 0;
     assert_true(session_direct(new_img, CUT_LEN));
-    uint32_t session_ops = hal.flash.ops;
-    hal.flash.ops = 0;
+    uint32_t session_ops = w.hal.flash.ops;
+    w.hal.flash.ops = 0;
     assert_true(cut_boot());
-    uint32_t install_ops = hal.flash.ops;
+    uint32_t install_ops = w.hal.flash.ops;
     assert_true(app_holds(new_img, CUT_LEN));
     assert_true(session_ops > 1000u && install_ops > 1000u);
 
     uint32_t scenarios = 0;
     for (uint8_t kind = FLASH_CUT_CLEAN; kind <= FLASH_CUT_TORN; kind++) {
         for (uint32_t k = 1; k <= session_ops + install_ops; k++) {
-            memcpy(hal.flash.mem, before, sizeof before);
-            flash_sim_power_on(&hal.flash);
-            hal.flash.cut_kind = kind;
+            memcpy(w.hal.flash.mem, before, sizeof before);
+            flash_sim_power_on(&w.hal.flash);
+            w.hal.flash.cut_kind = kind;
             if (k <= session_ops) {
-                hal.flash.cut_at = k;
+                w.hal.flash.cut_at = k;
                 assert_false(session_direct(new_img, CUT_LEN));
             } else {
                 assert_true(session_direct(new_img, CUT_LEN));
-                flash_sim_power_on(&hal.flash); /* the restart after the verified session */
-                hal.flash.cut_kind = kind;
-                hal.flash.cut_at = k - session_ops;
-                (void)boot_install(&hal, arm->model_number);
+                flash_sim_power_on(&w.hal.flash); /* the restart after the verified session */
+                w.hal.flash.cut_kind = kind;
+                w.hal.flash.cut_at = k - session_ops;
+                (void)boot_install(&w.hal, arm->model_number);
             }
-            assert_false(hal.flash.powered);
+            assert_false(w.hal.flash.powered);
             assert_boots_old_or_new(k);
             /* A cut in the install is finished by the boot after it. */
             if (k > session_ops)
@@ -672,21 +626,21 @@ static void test_second_cut_during_reinstall(void **state)
     (void)state;
     cut_setup();
     assert_true(session_direct(new_img, CUT_LEN));
-    memcpy(before, hal.flash.mem, sizeof before); /* staged, not installed */
-    flash_sim_power_on(&hal.flash);
-    assert_true(boot_install(&hal, arm->model_number));
-    uint32_t install_ops = hal.flash.ops;
+    memcpy(before, w.hal.flash.mem, sizeof before); /* staged, not installed */
+    flash_sim_power_on(&w.hal.flash);
+    assert_true(boot_install(&w.hal, arm->model_number));
+    uint32_t install_ops = w.hal.flash.ops;
     for (uint32_t first = 1; first <= install_ops; first += 173u) {
         for (uint32_t second = 1; second <= install_ops; second += 3u) {
-            memcpy(hal.flash.mem, before, sizeof before);
-            flash_sim_power_on(&hal.flash);
-            hal.flash.cut_kind = FLASH_CUT_TORN;
-            hal.flash.cut_at = first;
-            (void)boot_install(&hal, arm->model_number);
-            flash_sim_power_on(&hal.flash);
-            hal.flash.cut_kind = (uint8_t)(second % 3u);
-            hal.flash.cut_at = second;
-            (void)boot_install(&hal, arm->model_number);
+            memcpy(w.hal.flash.mem, before, sizeof before);
+            flash_sim_power_on(&w.hal.flash);
+            w.hal.flash.cut_kind = FLASH_CUT_TORN;
+            w.hal.flash.cut_at = first;
+            (void)boot_install(&w.hal, arm->model_number);
+            flash_sim_power_on(&w.hal.flash);
+            w.hal.flash.cut_kind = (uint8_t)(second % 3u);
+            w.hal.flash.cut_at = second;
+            (void)boot_install(&w.hal, arm->model_number);
             if (!cut_boot() || !app_holds(new_img, CUT_LEN))
                 fail_msg("cuts at install operations %u then %u: new image not installed",
                          first, second);
