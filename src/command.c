@@ -61,7 +61,9 @@ bool motion_write_allowed(const struct servo *s, uint8_t addr, const uint8_t *da
     return true;
 }
 
-void motion_on_write(struct servo *s, uint8_t addr, uint8_t n)
+/* A function of its own under -flto too: hal/stm32f1/qemu_cost.py counts a re-plan
+ * from its entry. */
+__attribute__((noinline)) void motion_on_write(struct servo *s, uint8_t addr, uint8_t n)
 {
     struct motion *m = &s->motion;
     if (touches(addr, n, REG_CLEAR_UNLOAD))
