@@ -69,7 +69,7 @@ static void factory_make(void)
         uint8_t size = regs_table[a].size;
         bool kept = regs_applicable(board, a) && regs_table[a].area == REG_AREA_EE &&
                     (regs_table[a].access & REG_ACCESS_W);
-        for (uint8_t i = 0; size && !kept && i < size; i++)
+        for (uint8_t i = 0; !kept && i < size; i++)
             factory[board_no].fixed[a + i] = 0xFFu;
     }
     factory[board_no].made = true;

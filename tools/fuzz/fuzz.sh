@@ -49,11 +49,11 @@ unit_timeout() { [ "$1" = fuzz_bus ] && echo 20 || echo 5; }
 # receiver's byte loop under fuzz_update's 1 KiB data blocks (fuzz_frame attacks the
 # receiver), the boot record's page scan after each power-up of fuzz_frame (fuzz_update
 # attacks boot.c), and the main loop's and the link's comparisons of virtual times, which
-# the inputs set only through gaps. Code a target only passes through (the motion layers
-# under fuzz_update's main loop; everything but the store under fuzz_store, and but the
-# planner under fuzz_planner) gets none:
-# libFuzzer scans every counter after every execution, so counters it never needs cost
-# each execution too. The coverage figures come from separate builds (compile_cov).
+# the inputs set only through gaps. Code a target only passes through gets none (the
+# motion layers under fuzz_update's main loop; all but the store under fuzz_store, all
+# but the planner under fuzz_planner): libFuzzer scans every counter after every
+# execution, so counters it never needs cost each execution too. The coverage figures
+# come from separate builds (compile_cov), which none of this touches.
 motion_srcs=" src/motion.c src/control.c src/homing.c src/sequence.c src/planner.c src/traj.c
              src/scale.c src/present.c src/command.c src/safety.c "
 tier() { # target source
@@ -74,8 +74,8 @@ tier() { # target source
 }
 
 # Objects: built once in each form, shared by the targets. The register table, the
-# store's scans and the host HAL only loop over tables and bits: never comparison-traced
-# (fuzz_store traces nothing but edges either).
+# store's scans and the host HAL only loop over tables and bits: no target traces their
+# comparisons (tier above).
 compile_fuzz() { # source object full|edges|none
     local src=$1 obj=$2 cov=()
     case $3 in
