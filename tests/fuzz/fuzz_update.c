@@ -82,8 +82,19 @@ const char fuzz_target_name[] = "fuzz_update";
 static struct hal hal;
 static struct servo servo;
 static const struct board *board;
-static uint8_t img[SLOT_BYTES]; /* the image the host sends, padded */
-static uint32_t img_len;
+/* An image the host sends, padded to the slot (and flipped where the input says), with
+ * the CRC-16s of its pages as they are needed. Two are kept, so neither is built twice
+ * in a row: the one every input starts with, and the last other one. */
+static struct sent_image {
+    bool made;
+    uint32_t len, flip;
+    uint16_t model, seed;
+    uint8_t version, pad;
+    uint32_t crc_known; /* a bit per page */
+    uint16_t crc[HAL_SLOT_PAGES];
+    uint8_t bytes[SLOT_BYTES];
+} images[2], *img = &images[0];
+_Static_assert(HAL_SLOT_PAGES <= 32u, "a bit per page");
 static uint8_t next_block;       /* after the last ACKed data block */
 static uint8_t boot_cut, boot_cut_kind; /* a power cut planned for the next install */
 static uint8_t app[SLOT_BYTES];  /* the application slot as of the last power-up */
@@ -236,6 +247,11 @@ static bool staging_good(void)
  * -1 until computed. */
 static int8_t app_good;
 
+/* The start state the HAL came from last (0xFF: none yet), and whether the input since
+ * changed app[]: the next input from the same start copies back only what changed. */
+static uint8_t last_start = 0xFFu;
+static bool app_dirty;
+
 /* Does the slot at first_page hold an image for this board with a right CRC-32? */
 static bool slot_check(uint8_t first_page)
 {
@@ -298,6 +314,7 @@ static void boot(void)
         FUZZ_CHECK(staged_good); /* 1: only a good staged image replaces the application */
         copy_slot(app, HAL_PAGE_APP);
         app_good = -1;
+        app_dirty = true;
     }
     if (!servo.in_loader) { /* the bootloader started the application */
         if (app_good < 0)
@@ -471,20 +488,19 @@ static void send_block(uint8_t f, uint8_t type, uint8_t num, const uint8_t *data
     send_frame(f, &p[0], (uint16_t)(n + 7u));
 }
 
-/* The CRC-16 of page pg of the image as sent, computed once per image. */
-static uint32_t page_crc_known; /* a bit per page */
-static uint16_t page_crc[HAL_SLOT_PAGES];
-_Static_assert(HAL_SLOT_PAGES <= 32u, "a bit per page");
+/* The CRC-16 of page pg of the image being sent, computed once per image. */
 static uint16_t page_crc16(uint8_t pg)
 {
-    if (!((page_crc_known >> pg) & 1u)) {
-        page_crc[pg] = crc16_independent(&img[pg * HAL_FLASH_PAGE_BYTES], HAL_FLASH_PAGE_BYTES);
-        page_crc_known |= 1u << pg;
+    if (!((img->crc_known >> pg) & 1u)) {
+        img->crc[pg] = crc16_independent(&img->bytes[pg * HAL_FLASH_PAGE_BYTES],
+                                         HAL_FLASH_PAGE_BYTES);
+        img->crc_known |= 1u << pg;
     }
-    return page_crc[pg];
+    return img->crc[pg];
 }
 
-static void make_image(struct fuzz_reader *r)
+/* The image to send (IMAGE; every input starts with first set, operands all 0). */
+static void make_image(struct fuzz_reader *r, bool first)
 {
     static const uint16_t models[] = {BOARD_MODEL_BASE, BOARD_MODEL_FOOT, BOARD_MODEL_ARM,
                                       BOARD_MODEL_WRIST, BOARD_MODEL_FINGER};
@@ -498,48 +514,50 @@ static void make_image(struct fuzz_reader *r)
     else if ((m & 3u) == 2u)
         model = (uint16_t)(model ^ (m | 1u) << 4);
     uint32_t span = (m & WHOLE_SLOT) == WHOLE_SLOT ? IMAGE_MAX_BYTES - IMAGE_MIN_BYTES + 1u
-                             : 2u * HAL_FLASH_PAGE_BYTES - IMAGE_MIN_BYTES + 1u;
-    img_len = IMAGE_MIN_BYTES + l % span;
-    /* Built only when it differs from the last one built (every input starts with the
-     * same small image); the pad and the flip below go on a copy. */
-    static uint8_t built[SLOT_BYTES];
-    static struct {
-        uint32_t len;
-        uint16_t model, seed;
-        uint8_t version;
-    } last;
-    if (last.len != img_len || last.model != model || last.version != v || last.seed != l) {
-        image_build(built, img_len, model, v, l);
-        last.len = img_len;
-        last.model = model;
-        last.version = v;
-        last.seed = l;
-    }
-    memcpy(img, built, img_len);
-    memset(&img[img_len], pad, SLOT_BYTES - img_len);
+                                                   : 2u * HAL_FLASH_PAGE_BYTES - IMAGE_MIN_BYTES + 1u;
+    uint32_t len = IMAGE_MIN_BYTES + l % span;
     uint32_t flip = SLOT_BYTES; /* none */
-    if (x & 1u) {
+    if (x & 1u)
         flip = (x >> 1) % 8u == 0u ? IMAGE_INFO_OFFSET + (x >> 4) % IMAGE_INFO_BYTES
-                                   : (uint32_t)(x * 131u) % img_len;
-        img[flip] ^= 0x10u;
+                                   : (uint32_t)(x * 131u) % len;
+    for (unsigned k = 0; k < 2u; k++) {
+        struct sent_image *e = &images[k];
+        if (e->made && e->len == len && e->flip == flip && e->model == model &&
+            e->seed == l && e->version == v && e->pad == pad) {
+            img = e;
+            return;
+        }
     }
-    /* The pages' CRC-16s stay known while the image sent is the same one (as it is at
-     * the start of every input). */
-    static struct {
-        uint32_t len, flip;
-        uint16_t model, seed;
-        uint8_t version, pad;
-    } crc_of;
-    if (crc_of.len != img_len || crc_of.flip != flip || crc_of.model != model ||
-        crc_of.seed != l || crc_of.version != v || crc_of.pad != pad) {
-        page_crc_known = 0;
-        crc_of.len = img_len;
-        crc_of.flip = flip;
-        crc_of.model = model;
-        crc_of.seed = l;
-        crc_of.version = v;
-        crc_of.pad = pad;
+    img = &images[first ? 0 : 1];
+    image_build(img->bytes, len, model, v, l);
+    memset(&img->bytes[len], pad, SLOT_BYTES - len);
+    if (flip < SLOT_BYTES)
+        img->bytes[flip] ^= 0x10u;
+    img->made = true;
+    img->len = len;
+    img->flip = flip;
+    img->model = model;
+    img->seed = l;
+    img->version = v;
+    img->pad = pad;
+    img->crc_known = 0;
+}
+
+/* hal := *from (a start state), the flash's pages only where the input wrote (its write
+ * counts differ) unless the last input came from another start. */
+static void start_restore(const struct hal *from, unsigned start_no)
+{
+    const size_t mem_at = offsetof(struct hal, flash) + offsetof(struct flash_sim, mem);
+    const size_t mem_end = mem_at + sizeof hal.flash.mem;
+    if (last_start != start_no) {
+        memcpy(&hal, from, HAL_FRESH_BYTES);
+        return;
     }
+    for (uint8_t p = 0; p < FLASH_SIM_PAGES; p++)
+        if (hal.flash.writes[p] != from->flash.writes[p])
+            memcpy(hal.flash.mem[p], from->flash.mem[p], HAL_FLASH_PAGE_BYTES);
+    memcpy(&hal, from, mem_at);
+    memcpy((uint8_t *)&hal + mem_end, (const uint8_t *)from + mem_end, HAL_FRESH_BYTES - mem_end);
 }
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
@@ -554,7 +572,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     board = boards[bi];
     input_no++;
     boot_cut = 0;
-    make_image(&(struct fuzz_reader){0, 0});
+    make_image(&(struct fuzz_reader){0, 0}, true);
     /* Every input starts from one of ten states (board, application erased or not) right
      * after its first power-up: made once each, then copied (a power-up costs more). */
     static struct {
@@ -566,6 +584,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         uint32_t writes[HAL_PAGE_STAGING];
         int8_t app_good;
     } start[10];
+    _Static_assert(sizeof start / sizeof start[0] <= 0xFFu, "last_start: 0xFF is none");
     if (!start[start_no].made) {
         static uint8_t factory[FACTORY_BYTES];
         hal_host_init(&hal);
@@ -589,14 +608,17 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         start[start_no].app_good = app_good;
         start[start_no].made = true;
     } else {
-        memcpy(&hal, &start[start_no].hal, HAL_FRESH_BYTES);
+        start_restore(&start[start_no].hal, start_no);
         servo = start[start_no].servo;
-        memcpy(app, start[start_no].app, sizeof app);
+        if (app_dirty || last_start != start_no)
+            memcpy(app, start[start_no].app, sizeof app);
         memcpy(store_pages, start[start_no].store, sizeof store_pages);
         memcpy(writes_outside, start[start_no].writes, sizeof writes_outside);
         app_good = start[start_no].app_good;
         next_block = 1;
     }
+    last_start = (uint8_t)start_no;
+    app_dirty = false;
 
     struct fuzz_reader r = {data + 1, size - 1u};
     unsigned rx_blocks = 0;
@@ -612,7 +634,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         }
         case 1: {
             f = fuzz_get8(&r);
-            uint32_t len = img_len;
+            uint32_t len = img->len;
             if (f & 4u)
                 for (int i = 0; i < 4; i++) /* big-endian, as the header carries it */
                     len = i ? len << 8 | fuzz_get8(&r) : fuzz_get8(&r);
@@ -636,7 +658,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             uint8_t pg = (uint8_t)((uint8_t)(num - 1u) % HAL_SLOT_PAGES);
             if (via_rx && ++rx_blocks > MAX_RX_BLOCKS)
                 via_rx = false;
-            memcpy(d, &img[pg * HAL_FLASH_PAGE_BYTES], PROTO_UPDATE_BLOCK_DATA);
+            memcpy(d, &img->bytes[pg * HAL_FLASH_PAGE_BYTES], PROTO_UPDATE_BLOCK_DATA);
             uint16_t crc;
             if (f & 0x20u) {
                 d[(f * 37u) % PROTO_UPDATE_BLOCK_DATA] ^= 0x01u;
@@ -653,7 +675,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             break;
         }
         case 5:
-            make_image(&r);
+            make_image(&r, false);
             break;
         case 6:
             boot();
