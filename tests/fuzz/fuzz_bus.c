@@ -10,7 +10,8 @@
  *
  * Input: byte 0 picks the board (byte 0 % 5: base, foot, arm, wrist, finger) and the
  * faults the servo's sensors see (byte 0 / 5, bits: 0-1 supply low, high or dropping
- * low then high; 2 over-temperature; 3 a current spike; 4 the shaft jammed), present in
+ * low then high; 2 over-temperature (90 C); 3 a current spike; 4 the shaft jammed; 5 a
+ * cold sensor (-30 C), with bit 2 one past the register's range (150 C)), present in
  * every other half second of virtual time from the second one on; byte 1 the servo's ID
  * (0: factory ID 1). The rest is the wire, from the host:
  *   FF FF      one data byte FF
@@ -165,7 +166,8 @@ static void sense(void)
     if (v == 3u && (hal.now_us / 1000000u) & 1u)
         v = 2u; /* dropping low, then high */
     hal.supply_mv = on ? supply[v] : 12000u;
-    hal.temperature_dc = on && (faults & 4u) ? 900 : 250;
+    static const int16_t temperature_dc[4] = {250, 900, -300, 1500};
+    hal.temperature_dc = on ? temperature_dc[((faults >> 2) & 1u) | ((faults >> 4) & 2u)] : 250;
     hal.current_extra_ma = on && (faults & 8u) ? 5000u : 0u;
     hal.motor.blocked = on && (faults & 16u);
 }

@@ -16,8 +16,9 @@
 #   tools/fuzz/fuzz.sh coverage      only the coverage of src/ by the corpora (and
 #                                    build/fuzz/cov-show.txt, line by line)
 #   tools/fuzz/fuzz.sh merge [T...]  minimise tests/fuzz/corpus/T/ together with what the
-#                                    runs found (build/fuzz/T/corpus/) with -merge=1, and
-#                                    replace the checked-in corpus with the result
+#                                    runs found (build/fuzz/T/corpus/; for fuzz_bus also the
+#                                    replay transcripts' seeds, tools/fuzz_seeds.py) with
+#                                    -merge=1, and replace the checked-in corpus with it
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 seconds=${FUZZ_SECONDS:-600}
@@ -156,11 +157,17 @@ run_target() {
 merge() {
     [ $# -gt 0 ] || set -- "${targets[@]}"
     for t in "$@"; do
-        local new=$out/$t/merged
+        local new=$out/$t/merged extra=()
         rm -rf "$new"
         mkdir -p "$new" "$out/$t/corpus"
+        if [ "$t" = fuzz_bus ]; then # the replay transcripts as they are now (fuzz_seeds.py)
+            rm -rf "$out/$t/seeds"
+            mkdir -p "$out/$t/seeds"
+            /usr/bin/python3 tools/fuzz_seeds.py tests/replay "$out/$t/seeds" > /dev/null
+            extra=("$out/$t/seeds")
+        fi
         "$out/bin/$t" -merge=1 -max_len="$(max_len "$t")" -timeout="$(unit_timeout "$t")" \
-            -rss_limit_mb=2048 "$new" "tests/fuzz/corpus/$t" "$out/$t/corpus" \
+            -rss_limit_mb=2048 "$new" "tests/fuzz/corpus/$t" "$out/$t/corpus" "${extra[@]}" \
             > "$out/$t/merge.log" 2>&1
         rm -rf "tests/fuzz/corpus/$t"
         mv "$new" "tests/fuzz/corpus/$t"
