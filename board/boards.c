@@ -45,14 +45,14 @@ const struct board board_finger = {
     .duty_per_amp = 166, /* 2 ohm at 12 V */
 };
 
-static const struct board *const boards_all[] = {
+const struct board *const board_all[BOARD_COUNT] = {
     &board_base, &board_foot, &board_arm, &board_wrist, &board_finger,
 };
 
 const struct board *board_find(const char *name)
 {
-    for (uint32_t i = 0; i < sizeof boards_all / sizeof boards_all[0]; i++)
-        if (strcmp(boards_all[i]->name, name) == 0)
-            return boards_all[i];
+    for (uint32_t i = 0; i < BOARD_COUNT; i++)
+        if (strcmp(board_all[i]->name, name) == 0)
+            return board_all[i];
     return 0;
 }

@@ -44,6 +44,10 @@ struct board {
 
 extern const struct board board_base, board_foot, board_arm, board_wrist, board_finger;
 
+/* Every reference board, in that order (host tools and tests iterate it). */
+#define BOARD_COUNT 5u
+extern const struct board *const board_all[BOARD_COUNT];
+
 /* The reference board of a variant name ("arm"), or 0 if there is none. */
 const struct board *board_find(const char *name);
 

@@ -63,20 +63,10 @@ free_port = qemu_servo.free_port
 def transact(sock, frame, want, timeout_s=0.4):
     """Send frame; return (answer bytes, seconds to the first answer byte)."""
     sock.sendall(frame)
-    start = time.monotonic()
-    got, first = b"", None
-    sock.settimeout(0.05)
-    while len(got) < want and time.monotonic() - start < timeout_s:
-        try:
-            chunk = sock.recv(64)
-        except socket.timeout:
-            continue
-        if not chunk:
-            fail("QEMU closed the serial socket")
-        if first is None:
-            first = time.monotonic() - start
-        got += chunk
-    return got, first
+    try:
+        return qemu_servo.receive(sock, want, timeout_s)
+    except ConnectionError as e:
+        fail(str(e))
 
 
 def ask(sock, frame, answer, what):

@@ -26,7 +26,7 @@ REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(REPO, "tools"))
 sys.path.insert(0, os.path.join(REPO, "tools", "python"))
 
-from qemu_servo import QemuServo  # noqa: E402
+from qemu_servo import QemuServo, receive  # noqa: E402
 from servobus import Bus  # noqa: E402
 from servobus.errors import MotionRefused, StatusError  # noqa: E402
 
@@ -79,20 +79,10 @@ class Wire:
 
     def collect(self, want, timeout):
         """Up to `want` bytes within timeout; (bytes, seconds to the first)."""
-        start = time.monotonic()
-        got, first = b"", None
-        while len(got) < want and time.monotonic() - start < timeout:
-            self.sock.settimeout(max(0.001, timeout - (time.monotonic() - start)))
-            try:
-                chunk = self.sock.recv(256)
-            except socket.timeout:
-                break
-            if not chunk:
-                fail("QEMU closed the serial socket")
-            if first is None:
-                first = time.monotonic() - start
-            got += chunk
-        return got, first
+        try:
+            return receive(self.sock, want, timeout)
+        except ConnectionError as e:
+            fail(str(e))
 
     def ask(self, pkt, answer, what, gap=None):
         """Send pkt (bytes of a list of chunks sent `gap` seconds apart); the exact

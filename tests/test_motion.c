@@ -260,8 +260,6 @@ static void ready(const struct board *b)
     snap_ok[b->variant] = true;
 }
 
-static const struct board *const boards[] = {&board_base, &board_foot, &board_arm, &board_wrist,
-                                             &board_finger};
 
 /* --- a measured move ------------------------------------------------------------------- */
 struct move_result {
@@ -381,7 +379,7 @@ static void rule1_nothing_moves_at_power_up(void **state)
 {
     (void)state;
     for (unsigned v = 0; v < VARIANT_COUNT; v++) {
-        power_up(boards[v]);
+        power_up(board_all[v]);
         assert_false(hal.motor.enabled);
         assert_int_equal(regs_get(&s.regs, REG_GOAL_POSITION), regs_present_position(&s.regs));
         run_ms(3000);
@@ -412,7 +410,7 @@ static void position_moves_per_variant(void **state)
     (void)state;
     worst = (struct move_result){0};
     for (unsigned v = VARIANT_FOOT; v < VARIANT_COUNT; v++) {
-        ready(boards[v]);
+        ready(board_all[v]);
         goal_move(30, 180, 36, 36, "to 30 at 180/s");
         goal_move(120, 90, 36, 36, "+90 at 90/s, 360/s^2");
         goal_move(60, 180, 100, 50, "-60 at 180/s, 1000/500");
@@ -805,7 +803,7 @@ static void rule3_property(void **state)
     unsigned brake_from[3] = {0, 0, 0}, brake_fail[3] = {0, 0, 0};
     static char first_fail[3][200];
     for (unsigned iter = 0; iter < 500; iter++) {
-        ready(boards[iter % VARIANT_COUNT]);
+        ready(board_all[iter % VARIANT_COUNT]);
         lo_lim = B->variant == VARIANT_BASE ? 0 : 10;
         hi_lim = wh() ? (B->variant == VARIANT_WRIST ? 260 : 170) : 350;
         unsigned n = 1 + rnd(6);

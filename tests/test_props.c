@@ -20,8 +20,6 @@
 
 #define RAD_TO_DEG 57.29577951308232
 
-static const struct board *const boards[] = {&board_base, &board_foot, &board_arm, &board_wrist,
-                                             &board_finger};
 
 /* Keep the heartbeat fed for ms: a PING every 100 ms. */
 static void talk_ms(uint32_t ms)
@@ -137,8 +135,8 @@ static void homing_holds_at_end(void **state)
 {
     (void)state;
     for (unsigned v = VARIANT_ARM; v < VARIANT_COUNT; v++) {
-        homing_holds_at_end_with(boards[v], 36); /* factory */
-        homing_holds_at_end_with(boards[v], 5);  /* 50 deg/s^2: a long overrun */
+        homing_holds_at_end_with(board_all[v], 36); /* factory */
+        homing_holds_at_end_with(board_all[v], 5);  /* 50 deg/s^2: a long overrun */
     }
 }
 
@@ -160,7 +158,7 @@ static void present_temperature_follows_sensor(void **state)
     (void)state;
     static const int16_t dc[] = {250, 0, -54, -55, 816, 349, 1270, 1400, -1300, 4, -4};
     for (unsigned v = 0; v < VARIANT_COUNT; v++) {
-        assert_true(bus_open(boards[v]));
+        assert_true(bus_open(board_all[v]));
         assert_int_equal(bus_w8(REG_HEARTBEAT_ENABLE, 0), 0);
         for (unsigned i = 0; i < sizeof dc / sizeof dc[0]; i++) {
             bus_hal()->temperature_dc = dc[i];
@@ -170,7 +168,7 @@ static void present_temperature_follows_sensor(void **state)
             assert_int_equal(bus_ans_len, 1);
             if (bus_ans[0] != temp_reg(dc[i]))
                 fail_msg("%s: sensor %d.%d C, register 46 = 0x%02x, want 0x%02x",
-                         boards[v]->name, dc[i] / 10, abs(dc[i] % 10), bus_ans[0],
+                         board_all[v]->name, dc[i] / 10, abs(dc[i] % 10), bus_ans[0],
                          temp_reg(dc[i]));
         }
     }
@@ -927,7 +925,7 @@ static bool sequence(uint32_t seed)
     prng = seed * 2654435761u + 0x9E3779B9u;
     if (!prng)
         prng = 1;
-    H.b = boards[prnd(VARIANT_COUNT)];
+    H.b = board_all[prnd(VARIANT_COUNT)];
     bool homed = prnd(10) != 0u;
     if (!start(H.b, homed)) {
         fprintf(stderr, "props: seed %u: %s does not start\n", seed, H.b->name);

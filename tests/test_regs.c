@@ -13,10 +13,6 @@
 #include "proto.h"
 #include "regs.h"
 
-static const struct board *const boards[] = {
-    &board_base, &board_foot, &board_arm, &board_wrist, &board_finger,
-};
-#define NBOARDS (sizeof boards / sizeof boards[0])
 
 /* Addresses that §5.1 marks reserved. */
 static const uint8_t reserved[] = {10, 14, 15, 23, 26, 27, 28, 29, 45};
@@ -107,13 +103,13 @@ static void no_overlapping_registers(void **state)
 static void defaults_within_range_on_every_board(void **state)
 {
     (void)state;
-    for (size_t b = 0; b < NBOARDS; b++)
+    for (size_t b = 0; b < BOARD_COUNT; b++)
         for (uint8_t a = 0; a < REGS_SIZE; a++) {
             /* A write-only command (25, "clear unload") has no value to default: §5.1
              * gives "-" and it reads 0, so only readable registers are checked. */
-            if (!regs_applicable(boards[b], a) || !(regs_table[a].access & REG_ACCESS_R))
+            if (!regs_applicable(board_all[b], a) || !(regs_table[a].access & REG_ACCESS_R))
                 continue;
-            uint16_t v = regs_default(boards[b], a);
+            uint16_t v = regs_default(board_all[b], a);
             assert_true(v >= regs_table[a].min);
             assert_true(v <= regs_table[a].max);
             if (regs_table[a].size == 1)
@@ -124,13 +120,13 @@ static void defaults_within_range_on_every_board(void **state)
 static void reserved_addresses_exist_nowhere(void **state)
 {
     (void)state;
-    for (size_t b = 0; b < NBOARDS; b++) {
+    for (size_t b = 0; b < BOARD_COUNT; b++) {
         for (size_t i = 0; i < sizeof reserved; i++) {
-            assert_false(regs_applicable(boards[b], reserved[i]));
-            assert_int_equal(regs_default(boards[b], reserved[i]), 0);
+            assert_false(regs_applicable(board_all[b], reserved[i]));
+            assert_int_equal(regs_default(board_all[b], reserved[i]), 0);
         }
-        assert_false(regs_applicable(boards[b], REGS_SIZE));
-        assert_false(regs_applicable(boards[b], 0xFF));
+        assert_false(regs_applicable(board_all[b], REGS_SIZE));
+        assert_false(regs_applicable(board_all[b], 0xFF));
     }
 }
 
@@ -139,8 +135,8 @@ static void reserved_addresses_exist_nowhere(void **state)
 static void factory_defaults_per_variant(void **state)
 {
     (void)state;
-    for (size_t b = 0; b < NBOARDS; b++) {
-        const struct board *bd = boards[b];
+    for (size_t b = 0; b < BOARD_COUNT; b++) {
+        const struct board *bd = board_all[b];
         struct regs r;
         memset(&r, 0x5A, sizeof r);
         regs_init(&r, bd);
@@ -189,9 +185,9 @@ static void board_defaults_match_section_8(void **state)
     (void)state;
     assert_int_equal(board_base.default_baud, 115200);
     assert_int_equal(board_base.return_delay, 8);
-    for (size_t b = 1; b < NBOARDS; b++) {
-        assert_int_equal(boards[b]->default_baud, 9600);
-        assert_int_equal(boards[b]->return_delay, 16);
+    for (size_t b = 1; b < BOARD_COUNT; b++) {
+        assert_int_equal(board_all[b]->default_baud, 9600);
+        assert_int_equal(board_all[b]->return_delay, 16);
     }
     assert_int_equal(board_base.photo_switches, 0);
     assert_int_equal(board_foot.photo_switches, 0);
@@ -205,8 +201,8 @@ static void board_defaults_match_section_8(void **state)
 static void variant_applicability(void **state)
 {
     (void)state;
-    for (size_t b = 0; b < NBOARDS; b++) {
-        const struct board *bd = boards[b];
+    for (size_t b = 0; b < BOARD_COUNT; b++) {
+        const struct board *bd = board_all[b];
         bool base = bd->variant == VARIANT_BASE;
         bool wh = bd->variant == VARIANT_WRIST || bd->variant == VARIANT_FINGER;
         assert_int_equal(regs_applicable(bd, REG_BASE_ACCELERATION), base);
@@ -272,9 +268,9 @@ static void write_ranges(void **state)
 static void write_read_only_refused(void **state)
 {
     (void)state;
-    for (size_t b = 0; b < NBOARDS; b++) {
+    for (size_t b = 0; b < BOARD_COUNT; b++) {
         struct regs r;
-        regs_init(&r, boards[b]);
+        regs_init(&r, board_all[b]);
         assert_false(valid2(&r, REG_MODEL_NUMBER, regs_get(&r, REG_MODEL_NUMBER)));
         assert_false(valid1(&r, REG_FIRMWARE_VERSION, r.mem[REG_FIRMWARE_VERSION]));
         assert_false(valid2(&r, REG_PRESENT_POSITION, 0));

@@ -56,14 +56,12 @@ static void present_speed_reads_units_per_second_and_saturates(void **state)
 static void present_registers_land_where_the_variant_has_them(void **state)
 {
     (void)state;
-    const struct board *boards[] = {&board_base, &board_foot, &board_arm, &board_wrist,
-                                    &board_finger};
-    for (size_t i = 0; i < sizeof boards / sizeof boards[0]; i++) {
+    for (size_t i = 0; i < BOARD_COUNT; i++) {
         struct regs r;
-        regs_init(&r, boards[i]);
+        regs_init(&r, board_all[i]);
         const struct present_inputs in = {1234, -56, true, 2, 254};
-        present_write(&r, boards[i], &in);
-        uint8_t pos = regs_applicable(boards[i], REG_PRESENT_POSITION) ? REG_PRESENT_POSITION
+        present_write(&r, board_all[i], &in);
+        uint8_t pos = regs_applicable(board_all[i], REG_PRESENT_POSITION) ? REG_PRESENT_POSITION
                                                                         : REG_TURNED_ANGLE;
         assert_int_equal(regs_get(&r, pos), 1234);
         assert_int_equal((int16_t)regs_get(&r, REG_PRESENT_SPEED), -56);

@@ -47,6 +47,25 @@ def free_port():
         return s.getsockname()[1]
 
 
+def receive(sock, want, timeout):
+    """Up to `want` bytes from QEMU's serial socket within timeout seconds; returns
+    (bytes, seconds to the first, or None). ConnectionError if QEMU closed it."""
+    start = time.monotonic()
+    got, first = b"", None
+    while len(got) < want and time.monotonic() - start < timeout:
+        sock.settimeout(max(0.001, timeout - (time.monotonic() - start)))
+        try:
+            chunk = sock.recv(256)
+        except socket.timeout:
+            break
+        if not chunk:
+            raise ConnectionError("QEMU closed the serial socket")
+        if first is None:
+            first = time.monotonic() - start
+        got += chunk
+    return got, first
+
+
 class QemuServo:
     """One emulated MCU: proc (the QEMU process), port (USART1's TCP port, a server that
     takes one client at a time), url (tcp://127.0.0.1:port). stop() always kills it."""

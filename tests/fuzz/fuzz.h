@@ -51,6 +51,54 @@ static inline uint8_t fuzz_get8(struct fuzz_reader *r)
     return *r->p++;
 }
 
+/* The wire of fuzz_bus and fuzz_frame, one format so that seeds serve both (fuzz_bus.c
+ * has it in full): data bytes, FF FF for a data byte FF, FF FE a power cycle, FF FD k a
+ * flash power cut, FF g an idle line. One event at a time; END where the input ends, a
+ * pair cut short included. */
+enum fuzz_wire { FUZZ_WIRE_END, FUZZ_WIRE_BYTE, FUZZ_WIRE_POWER_CYCLE, FUZZ_WIRE_CUT,
+                 FUZZ_WIRE_IDLE };
+
+struct fuzz_wire_event {
+    enum fuzz_wire kind;
+    uint8_t byte;      /* BYTE */
+    uint8_t cut_after; /* CUT: at the cut_after-th next program or erase (1..16) */
+    uint8_t cut_kind;  /* CUT: enum flash_cut (clean, done, torn) */
+    uint32_t idle_us;  /* IDLE: (g + 1)^2 x 10 us, 10 us ... 0.64 s */
+};
+
+static inline struct fuzz_wire_event fuzz_wire_next(struct fuzz_reader *r)
+{
+    struct fuzz_wire_event e = {FUZZ_WIRE_END, 0, 0, 0, 0};
+    if (!r->left)
+        return e;
+    uint8_t b = fuzz_get8(r);
+    if (b != 0xFFu) {
+        e.kind = FUZZ_WIRE_BYTE;
+        e.byte = b;
+        return e;
+    }
+    if (!r->left)
+        return e;
+    uint8_t c = fuzz_get8(r);
+    if (c == 0xFFu) {
+        e.kind = FUZZ_WIRE_BYTE;
+        e.byte = 0xFFu;
+    } else if (c == 0xFEu) {
+        e.kind = FUZZ_WIRE_POWER_CYCLE;
+    } else if (c == 0xFDu) {
+        if (!r->left)
+            return e;
+        uint8_t k = fuzz_get8(r);
+        e.kind = FUZZ_WIRE_CUT;
+        e.cut_after = (uint8_t)((k & 15u) + 1u);
+        e.cut_kind = (uint8_t)((k >> 4) % 3u);
+    } else {
+        e.kind = FUZZ_WIRE_IDLE;
+        e.idle_us = (c + 1u) * (c + 1u) * 10u;
+    }
+    return e;
+}
+
 #ifdef FUZZ_LIBFUZZER
 #include <time.h>
 

@@ -194,13 +194,11 @@ static void send_byte(uint8_t b)
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    static const struct board *const boards[] = {&board_base, &board_foot, &board_arm,
-                                                 &board_wrist, &board_finger};
     fuzz_progress();
     if (size < 2u)
         return 0;
-    const struct board *b = boards[data[0] % 5u];
-    faults = (uint8_t)(data[0] / 5u);
+    const struct board *b = board_all[data[0] % BOARD_COUNT];
+    faults = (uint8_t)(data[0] / BOARD_COUNT);
     hal_host_init(&hal);
     hal_host_attach_board(&hal, b);
     hal_host_program_factory(&hal, b);
@@ -216,26 +214,24 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     speed0_window = false;
     check_all();
 
-    for (size_t i = 2; i < size && hal.now_us < MAX_VIRTUAL_US; i++) {
-        if (data[i] != 0xFFu) {
-            send_byte(data[i]);
-            continue;
-        }
-        if (++i == size)
+    struct fuzz_reader r = {data + 2, size - 2u};
+    for (struct fuzz_wire_event e; hal.now_us < MAX_VIRTUAL_US &&
+                                   (e = fuzz_wire_next(&r)).kind != FUZZ_WIRE_END;) {
+        switch (e.kind) {
+        case FUZZ_WIRE_BYTE:
+            send_byte(e.byte);
             break;
-        uint8_t c = data[i];
-        if (c == 0xFFu) {
-            send_byte(0xFFu);
-        } else if (c == 0xFEu) {
+        case FUZZ_WIRE_POWER_CYCLE:
             power_up();
             check_all();
-        } else if (c == 0xFDu) {
-            if (++i == size)
-                break;
-            hal.flash.cut_at = hal.flash.ops + (data[i] & 15u) + 1u;
-            hal.flash.cut_kind = (uint8_t)((data[i] >> 4) % 3u);
-        } else {
-            run_until(hal.now_us + (c + 1u) * (c + 1u) * 10u);
+            break;
+        case FUZZ_WIRE_CUT:
+            hal.flash.cut_at = hal.flash.ops + e.cut_after;
+            hal.flash.cut_kind = e.cut_kind;
+            break;
+        default: /* FUZZ_WIRE_IDLE */
+            run_until(hal.now_us + e.idle_us);
+            break;
         }
     }
     run_until(hal.now_us + 20000u); /* let the last answer go out */

@@ -50,8 +50,8 @@ static struct {
 #define HAL_FRESH_BYTES offsetof(struct hal, log)
 _Static_assert(offsetof(struct hal, log) + sizeof hal.log == sizeof(struct hal),
                "the transmit log is the last member of struct hal");
-static struct hal fresh[5];
-static bool fresh_made[5];
+static struct hal fresh[BOARD_COUNT];
+static bool fresh_made[BOARD_COUNT];
 
 static uint8_t checked[REGS_SIZE]; /* the table as last checked */
 
@@ -188,13 +188,11 @@ static void send_byte(uint8_t b)
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    static const struct board *const boards[] = {&board_base, &board_foot, &board_arm,
-                                                 &board_wrist, &board_finger};
     fuzz_progress();
     if (size < 2u)
         return 0;
-    uint8_t bi = data[0] % 5u;
-    const struct board *b = boards[bi];
+    uint8_t bi = data[0] % BOARD_COUNT;
+    const struct board *b = board_all[bi];
     if (!fresh_made[bi]) {
         hal_host_init(&fresh[bi]);
         hal_host_attach_board(&fresh[bi], b);
@@ -213,26 +211,24 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     answer.pending = false;
     check_table();
 
-    for (size_t i = 2; i < size && hal.now_us < MAX_VIRTUAL_US; i++) {
-        if (data[i] != 0xFFu) {
-            send_byte(data[i]);
-            continue;
-        }
-        if (++i == size)
+    struct fuzz_reader r = {data + 2, size - 2u};
+    for (struct fuzz_wire_event e; hal.now_us < MAX_VIRTUAL_US &&
+                                   (e = fuzz_wire_next(&r)).kind != FUZZ_WIRE_END;) {
+        switch (e.kind) {
+        case FUZZ_WIRE_BYTE:
+            send_byte(e.byte);
             break;
-        uint8_t c = data[i];
-        if (c == 0xFFu) {
-            send_byte(0xFFu);
-        } else if (c == 0xFEu) {
+        case FUZZ_WIRE_POWER_CYCLE:
             power_up();
             check_table();
-        } else if (c == 0xFDu) {
-            if (++i == size)
-                break;
-            hal.flash.cut_at = hal.flash.ops + (data[i] & 15u) + 1u;
-            hal.flash.cut_kind = (uint8_t)((data[i] >> 4) % 3u);
-        } else {
-            run_until(hal.now_us + (c + 1u) * (c + 1u) * 10u, true);
+            break;
+        case FUZZ_WIRE_CUT:
+            hal.flash.cut_at = hal.flash.ops + e.cut_after;
+            hal.flash.cut_kind = e.cut_kind;
+            break;
+        default: /* FUZZ_WIRE_IDLE */
+            run_until(hal.now_us + e.idle_us, true);
+            break;
         }
     }
     run_until(hal.now_us + 300000u, true); /* the last answers go out, whatever the delay */

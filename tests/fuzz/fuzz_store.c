@@ -57,7 +57,7 @@ static struct {
     bool made;
     struct regs table;
     uint8_t fixed[REGS_SIZE]; /* 0xFF: a byte the store must leave at its factory value */
-} factory[5];
+} factory[BOARD_COUNT];
 static unsigned board_no;
 
 static void factory_make(void)
@@ -108,8 +108,6 @@ FUZZ_NO_COVERAGE static void boot(uint32_t now)
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    static const struct board *const boards[] = {&board_base, &board_foot, &board_arm,
-                                                 &board_wrist, &board_finger};
     static bool made;
     fuzz_progress();
     if (size < 1u)
@@ -125,8 +123,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     memset(hal.flash.writes, 0, sizeof hal.flash.writes);
     hal.flash.cut_at = 0;
     hal.flash.rng = 0x2545F491u;
-    board_no = data[0] % 5u;
-    board = boards[board_no];
+    board_no = data[0] % BOARD_COUNT;
+    board = board_all[board_no];
     factory_make();
     struct fuzz_reader r = {data + 1, size - 1u};
     uint32_t now = 0;

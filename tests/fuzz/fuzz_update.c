@@ -502,15 +502,13 @@ static uint16_t page_crc16(uint8_t pg)
 /* The image to send (IMAGE; every input starts with first set, operands all 0). */
 static void make_image(struct fuzz_reader *r, bool first)
 {
-    static const uint16_t models[] = {BOARD_MODEL_BASE, BOARD_MODEL_FOOT, BOARD_MODEL_ARM,
-                                      BOARD_MODEL_WRIST, BOARD_MODEL_FINGER};
     uint8_t m = fuzz_get8(r), v = fuzz_get8(r);
     uint16_t l = fuzz_get8(r);
     l = (uint16_t)(l | fuzz_get8(r) << 8);
     uint8_t pad = fuzz_get8(r), x = fuzz_get8(r);
     uint16_t model = board->model_number;
     if ((m & 3u) == 1u)
-        model = models[(board->variant + 1u + (m >> 3) % 4u) % 5u];
+        model = board_all[(board->variant + 1u + (m >> 3) % 4u) % BOARD_COUNT]->model_number;
     else if ((m & 3u) == 2u)
         model = (uint16_t)(model ^ (m | 1u) << 4);
     uint32_t span = (m & WHOLE_SLOT) == WHOLE_SLOT ? IMAGE_MAX_BYTES - IMAGE_MIN_BYTES + 1u
@@ -562,14 +560,12 @@ static void start_restore(const struct hal *from, unsigned start_no)
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    static const struct board *const boards[] = {&board_base, &board_foot, &board_arm,
-                                                 &board_wrist, &board_finger};
     fuzz_progress();
     if (size < 1u)
         return 0;
-    uint8_t bi = data[0] % 5u;
-    unsigned start_no = bi * 2u + ((data[0] / 5u) & 1u);
-    board = boards[bi];
+    uint8_t bi = data[0] % BOARD_COUNT;
+    unsigned start_no = bi * 2u + ((data[0] / BOARD_COUNT) & 1u);
+    board = board_all[bi];
     input_no++;
     boot_cut = 0;
     make_image(&(struct fuzz_reader){0, 0}, true);
@@ -583,7 +579,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         uint8_t store[HAL_FLASH_PAGES][HAL_FLASH_PAGE_BYTES];
         uint32_t writes[HAL_PAGE_STAGING];
         int8_t app_good;
-    } start[10];
+    } start[2u * BOARD_COUNT];
     _Static_assert(sizeof start / sizeof start[0] <= 0xFFu, "last_start: 0xFF is none");
     if (!start[start_no].made) {
         static uint8_t factory[FACTORY_BYTES];
