@@ -97,8 +97,7 @@ static void servo_pass(struct servo *s, uint32_t now)
     if (app) {
         dispatch_frame(s, f);
         motion_report(s); /* what the command changed is what the next READ sees */
-    }
-    else if (update_is_frame(f->buf, f->len)) /* update mode answers §10 frames only */
+    } else if (update_is_frame(f->buf, f->len)) /* update mode answers §10 frames only */
         (void)loader_update_frame(s, f);
     frame_rx_release(&s->rx);
     if (s->link.state == LINK_IDLE)
