@@ -9,9 +9,10 @@ on servo-sim over TCP.
 """
 
 from .bus import Bus, Found, HomingStatus, UpdateStats
-from .errors import (BusTimeout, ChecksumError, IdTaken, InstructionError, MotionRefused,
-                     ProtocolError, RangeError, ServoBusError, ServoFault, StatusError,
-                     UnknownRegister, UpdateError, UpdateRefused, UpdateTimeout)
+from .errors import (BusTimeout, ChecksumError, DuplicateId, IdTaken, InstructionError,
+                     Interrupted, MotionRefused, NotApplied, ProtocolError, RangeError,
+                     ServoBusError, ServoFault, StatusError, UnknownRegister, UpdateError,
+                     UpdateRefused, UpdateTimeout)
 from .image import ImageError
 from .protocol import BROADCAST
 from .registers import REGISTERS, VARIANTS, register
@@ -20,7 +21,8 @@ __all__ = [
     "Bus", "Found", "HomingStatus", "UpdateStats", "BROADCAST", "REGISTERS", "VARIANTS",
     "register",
     "ServoBusError", "BusTimeout", "ProtocolError", "RangeError", "UnknownRegister",
-    "IdTaken", "StatusError", "InstructionError", "MotionRefused", "ChecksumError",
+    "IdTaken", "DuplicateId", "NotApplied", "Interrupted", "StatusError",
+    "InstructionError", "MotionRefused", "ChecksumError",
     "ServoFault", "UpdateError", "UpdateRefused", "UpdateTimeout", "ImageError",
 ]
 __version__ = "0.1.0"

@@ -1,13 +1,13 @@
-"""The control table over the bus: READ, WRITE, REG WRITE/ACTION, SYNC WRITE, the whole
-table, the ID and a factory reset."""
-
-import time
+"""The control table over the bus: READ, WRITE, all-or-nothing sets, REG WRITE/ACTION,
+SYNC WRITE and the whole table (IDs and factory reset: identity.py)."""
 
 from . import protocol as P
-from .errors import (BusTimeout, DuplicateId, IdTaken, NotApplied, ProtocolError,
-                     RangeError, ServoBusError, ServoFault)
+from . import values as V
+from .errors import (BusTimeout, DuplicateId, InstructionError, Interrupted, NotApplied,
+                     ProtocolError, RangeError, ServoBusError, ServoFault)
 from .link import _MOTION_HINT, SESSION_HINT, check_id
-from .registers import REGISTERS, TABLE_SIZE, VARIANTS, register, variant_by_model
+from .registers import (REGISTERS, TABLE_SIZE, VARIANTS, Variant, register,
+                        variant_by_model)
 
 _WRITE_HINT = ("a value out of range, a read-only, reserved or not-applicable register, "
                "a CW limit above the CCW limit, a motion command the servo refuses now, "
@@ -15,12 +15,15 @@ _WRITE_HINT = ("a value out of range, a read-only, reserved or not-applicable re
 # Registers whose read-back differs from what was written by design: the goal is clamped
 # to the limits, clear_unload reads 0, homing reports its state in the high nibble.
 _NO_READBACK = ("goal_position", "clear_unload", "homing")
-# Seconds a RESET that was not answered is given to show up at ID 1.
-RESET_SETTLE_S = 1.0
 
 
 def _all_variants(r):
     return set(r.variants) == set(VARIANTS)
+
+
+def _touches_eeprom(regs_values):
+    """Does a write of these registers (names or addresses) reach the flash store?"""
+    return any(register(k).area == "EEPROM" for k in regs_values)
 
 
 class Control:
@@ -28,17 +31,48 @@ class Control:
 
     _unchanged = False  # write_many() found the WRITE's EEPROM values already there
 
+    @property
+    def _held_eeprom(self):
+        """Per ID: does the write a REG WRITE holds there touch EEPROM (its ACTION then
+        spends a commit)? Broadcast REG WRITEs are held under the broadcast ID."""
+        held = self.__dict__.get("_held")
+        if held is None:
+            held = self.__dict__["_held"] = {}
+        return held
+
     def read_raw(self, servo_id, address, count):
         """READ count bytes from address; returns bytes."""
-        if not (0 <= address < TABLE_SIZE and 1 <= count <= TABLE_SIZE - address):
-            raise RangeError("READ %d bytes from %d is outside the table (addresses 0-%d)"
-                             % (count, address, TABLE_SIZE - 1))
+        _check_span(address, count)
         pkt = self.transact(servo_id, P.READ, bytes([address, count]),
                             "READ %d bytes from %d" % (count, address), nbytes=6 + count)
         if len(pkt.params) != count:
             raise ProtocolError("ID %d answered READ of %d bytes with %d" % (
                 servo_id, count, len(pkt.params)))
         return pkt.params
+
+    def read_alone(self, servo_id, address, count):
+        """READ count bytes from address, listening for the whole answer window: the
+        bytes, when one servo answers. Two servos at the ID (two answers, or answers
+        that garble each other, confirmed by duplicate()) raise DuplicateId, so that
+        values of two servos are never mixed. No answer, or an error answer: read_raw()
+        once more, whose errors say why (level 0, absent, update mode)."""
+        check_id(servo_id)
+        _check_span(address, count)
+        frame = P.instruction(servo_id, P.READ, bytes([address, count]))
+        answers, garbled = self.listen(servo_id, frame,
+                                       lambda pkt: len(pkt.params) == count, 6 + count)
+        if len(answers) > 1 or (garbled and self.duplicate(servo_id)):
+            raise DuplicateId(
+                "two servos answer at ID %d (%s): their values would be mixed; see \"Two "
+                "servos on one ID\" in tools/python/README.md" % (
+                    servo_id, "two answers to one READ" if len(answers) > 1 else
+                    "their answers garble each other"))
+        if not answers:
+            return self.read_raw(servo_id, address, count)
+        self.last_err = answers[0].err
+        self._check(servo_id, answers[0].err, "READ %d bytes from %d" % (count, address),
+                    "", answers[0].params, False)
+        return answers[0].params
 
     def read(self, servo_id, reg):
         """Value of one register (name or address), decoded (signed where it is)."""
@@ -48,7 +82,7 @@ class Control:
 
     def read_many(self, servo_id, regs):
         """Several registers in one READ (from the lowest to the highest): a dict."""
-        rs = [register(x) for x in regs]
+        rs = [register(x) for x in V.names(regs, "registers")]
         lo = min(r.address for r in rs)
         hi = max(r.address + r.size for r in rs)
         data = self.read_raw(servo_id, lo, hi - lo)
@@ -58,6 +92,7 @@ class Control:
     def variant(self, servo_id):
         """The servo's variant (from its model number; cached per ID), or None. A live
         fault bit in the answer (a latched unload) does not stop it being read."""
+        check_id(servo_id)
         if servo_id not in self._variants:
             try:
                 model = self.read(servo_id, "model_number")
@@ -74,7 +109,11 @@ class Control:
     def encode(self, regs_values, variant=None):
         """(address, bytes) of one WRITE of {register: value} (contiguous registers),
         range-checked against the table; RangeError before anything is sent."""
-        items = sorted(((register(k), v) for k, v in dict(regs_values).items()),
+        if variant is not None and not isinstance(variant, Variant):
+            raise RangeError("variant %r: give a servobus.registers.Variant or None" %
+                             (variant,))
+        items = sorted(((register(k), v) for k, v in
+                        V.mapping(regs_values, "registers").items()),
                        key=lambda rv: rv[0].address)
         if not items:
             raise RangeError("nothing to write")
@@ -95,7 +134,7 @@ class Control:
     def write(self, servo_id, reg, value=None, check_variant=True):
         """WRITE one register (name or address) or, with a dict, several contiguous ones
         in one packet. Values are in the register's unit (signed for speeds)."""
-        regs_values = reg if isinstance(reg, dict) else {reg: value}
+        regs_values = reg if isinstance(reg, dict) else {register(reg).name: value}
         check_id(servo_id, broadcast=True)
         variant = None
         if check_variant and servo_id != P.BROADCAST and \
@@ -177,7 +216,8 @@ class Control:
         (a single WRITE when they are contiguous; the run with a new ID or baud last).
         RangeError, nothing sent."""
         named = {}
-        for k, v in dict(regs_values).items():
+        check_id(servo_id)
+        for k, v in V.mapping(regs_values, "registers").items():
             r = register(k)
             if r.name in named:
                 raise RangeError("%s is given twice" % r.name)
@@ -215,38 +255,86 @@ class Control:
         return [(a, rv) for a, rv, _ in runs]
 
     def write_many(self, servo_id, regs_values):
-        """All or nothing: plan_write() checks every value first, then one WRITE per
-        contiguous run (one WRITE when the registers are contiguous, which the servo
-        applies whole or not at all). If a later WRITE is refused, the earlier ones are
-        written back to the values read before (best effort) and the refusal raised.
-        Returns the runs written."""
-        runs = self.plan_write(servo_id, regs_values)
+        """All or nothing for settings: plan_write() checks every value first, then one
+        WRITE per contiguous run (one WRITE when the registers are contiguous, which the
+        servo applies whole or not at all). If a later WRITE is refused, the earlier
+        ones are written back to the values read before (best effort) and the refusal
+        raised. clear_unload (register 25) is an action, not a setting: it is sent after
+        the settings (before a new ID or baud), alone, by clear_unload(), which tries it
+        again while the servo still sees the cause; nothing else is sent again, and a
+        clear refused for good leaves the settings written (they are what removes the
+        cause) and raises. Returns the runs written."""
+        named = {}
+        for k, v in V.mapping(regs_values, "registers").items():
+            if register(k).name in named:
+                raise RangeError("%s is given twice" % register(k).name)
+            named[register(k).name] = v
+        clear = named.pop("clear_unload", None)
+        if clear is not None:
+            check_id(servo_id)
+            self.encode({"clear_unload": clear})  # range-checked before anything is sent
+        runs = self.plan_write(servo_id, named) if named or clear is None else []
+        # plan_write() puts the run with a new ID or baud last: the clear goes before it
+        steps = [rv for _, rv in runs]
+        if clear is not None:
+            at = len(steps) - 1 if steps and ("id" in steps[-1] or "baud_rate" in
+                                              steps[-1]) else len(steps)
+            steps.insert(at, None)
+        before = [self._before(servo_id, rv) if rv and len(runs) > 1 else {}
+                  for rv in steps]
         waits, confirmed = [], True
-        before = []
-        if len(runs) > 1:
-            for _, rv in runs:
-                readable = [n for n in rv if register(n).readable and n not in _NO_READBACK]
-                before.append(self.read_many(servo_id, readable) if readable else {})
-        for i, (_, rv) in enumerate(runs):
+        for i, rv in enumerate(steps):
+            if rv is None:  # the clear: retried alone, never undone, nothing undone for it
+                if clear == 1:
+                    self._clear_after(servo_id, steps[:i])
+                else:
+                    self.write(servo_id, "clear_unload", clear)
+                confirmed = confirmed and self.confirmed
+                continue
             try:
                 self._unchanged = self._same_eeprom(servo_id, rv)
                 self.write(servo_id, rv, check_variant=False)
-                waits.append(self.commit_wait)
-                confirmed = confirmed and self.confirmed
+            except Interrupted:  # a STOP goes through every check
+                raise
             except ServoBusError:
-                for j in range(i):
-                    if before[j]:
-                        try:
-                            self.write(servo_id, before[j], check_variant=False)
-                        except ServoBusError:
-                            pass
+                self._write_back(servo_id, before[:i])
                 raise
             finally:
                 self._unchanged = False
+            waits.append(self.commit_wait)
+            confirmed = confirmed and self.confirmed
         known = [w for w in waits if w is not None]
         self.commit_wait = max(known) if known else None  # the longest of the WRITEs
         self.confirmed = confirmed
         return runs
+
+    def _clear_after(self, servo_id, written):
+        """clear_unload() after the settings of `written`; if it is refused for good,
+        the refusal says that those settings were written and stay."""
+        try:
+            self.clear_unload(servo_id)
+        except InstructionError as e:
+            kept = ["%s=%s" % kv for rv in written for kv in rv.items()]
+            if not kept:
+                raise
+            raise InstructionError(e.servo_id, e.err, e.what, "%s; %s %s written and stay" % (
+                e.hint, ", ".join(kept), "was" if len(kept) == 1 else "were")) from None
+
+    def _before(self, servo_id, rv):
+        """What the readable registers of a run hold now (to write them back)."""
+        readable = [n for n in rv if register(n).readable and n not in _NO_READBACK]
+        return self.read_many(servo_id, readable) if readable else {}
+
+    def _write_back(self, servo_id, befores):
+        """Best effort: the runs written before a refused one get their old values."""
+        for old in befores:
+            if old:
+                try:
+                    self.write(servo_id, old, check_variant=False)
+                except Interrupted:  # a STOP goes through every check
+                    raise
+                except ServoBusError:
+                    pass
 
     def _same_eeprom(self, servo_id, rv):
         """True if every register of rv is EEPROM and already holds its value: the WRITE
@@ -255,36 +343,55 @@ class Control:
             return False
         try:
             return self.read_many(servo_id, list(rv)) == dict(rv)
+        except Interrupted:  # a STOP goes through every check
+            raise
         except ServoBusError:
             return False
 
     def write_raw(self, servo_id, address, data):
         """WRITE raw bytes at address (no checks in the SDK; the servo validates)."""
+        V.strict_integer(address, "address", 0, 0xFF)
+        data = V.data(data, "data")
         self.transact(servo_id, P.WRITE, bytes([address]) + bytes(data),
                       "WRITE %d bytes at %d" % (len(data), address), hint=_WRITE_HINT)
 
     def reg_write(self, servo_id, reg, value=None):
         """REG WRITE: validated and held until ACTION (register 44 reads 1 meanwhile)."""
-        regs_values = reg if isinstance(reg, dict) else {reg: value}
+        regs_values = reg if isinstance(reg, dict) else {register(reg).name: value}
+        check_id(servo_id, broadcast=True)
         variant = self.variant(servo_id) if servo_id != P.BROADCAST else None
         address, data = self.encode(regs_values, variant)
         self.transact(servo_id, P.REG_WRITE, bytes([address]) + data, "REG WRITE",
                       hint=_WRITE_HINT)
+        # Held until ACTION, which commits it (a later REG WRITE replaces it).
+        self._held_eeprom[servo_id] = _touches_eeprom(regs_values)
 
     def action(self, servo_id=P.BROADCAST):
         """ACTION: apply the held REG WRITE (broadcast by default: all at once)."""
         self.transact(servo_id, P.ACTION, what="ACTION",
                       hint="nothing was held by a REG WRITE, or the held write is refused now")
+        if P.ACTION not in P.COMMITS:
+            return
+        everyone = servo_id == P.BROADCAST or self._held_eeprom.get(P.BROADCAST)
+        held = list(self._held_eeprom) if everyone else [servo_id]
+        for k in held:
+            if k != P.BROADCAST and self._held_eeprom.get(k):
+                self.commit_wait = self.commit_budget.commit(self.budget_key(k))
+        if servo_id == P.BROADCAST:
+            self._held_eeprom.clear()
+        else:
+            self._held_eeprom.pop(servo_id, None)
 
     def sync_write(self, reg, values):
         """SYNC WRITE (broadcast, no answers): values maps ID -> value, or ID -> dict of
         contiguous registers. Every value is range-checked before anything is sent."""
         slices = []
         address = length = None
+        V.mapping(values, "SYNC WRITE values")
+        for servo_id in values:
+            V.servo_id(servo_id, "SYNC WRITE: ID", strict=True)
         for servo_id, v in sorted(values.items()):
-            if not 0 <= servo_id <= P.ID_MAX:
-                raise RangeError("SYNC WRITE: ID %r is not 0-253" % (servo_id,))
-            a, data = self.encode(v if isinstance(v, dict) else {reg: v})
+            a, data = self.encode(v if isinstance(v, dict) else {register(reg).name: v})
             if address is None:
                 address, length = a, len(data)
             elif (a, len(data)) != (address, length):
@@ -297,12 +404,18 @@ class Control:
             raise RangeError("SYNC WRITE: %d servos x %d bytes do not fit in one packet" %
                              (len(slices), length))
         self.send(P.BROADCAST, P.SYNC_WRITE, params)
+        if P.SYNC_WRITE in P.COMMITS:  # each listed servo commits its slice
+            for servo_id, v in sorted(values.items()):
+                if _touches_eeprom(v if isinstance(v, dict) else {reg: v}):
+                    self.commit_wait = self.commit_budget.commit(self.budget_key(servo_id))
 
     def dump(self, servo_id):
         """The whole table in one READ: a list of (Register, value or None where the
-        register is not applicable/readable on this variant)."""
-        variant = self.variant(servo_id)
-        data = self.read_raw(servo_id, 0, TABLE_SIZE)
+        register is not applicable/readable on this variant). One READ, its whole answer
+        window listened to: two servos at the ID raise DuplicateId (read_alone)."""
+        data = self.read_alone(servo_id, 0, TABLE_SIZE)
+        variant = variant_by_model(int.from_bytes(data[0:2], "little"))
+        self._variants[servo_id] = variant
         out = []
         for r in REGISTERS.values():
             if not r.applies_to(variant) or not r.readable:
@@ -312,74 +425,11 @@ class Control:
             out.append((r, r.decode(raw)))
         return out
 
-    # ---- configuration --------------------------------------------------------------
 
-    def set_id(self, servo_id, new_id, check_free=True, check_duplicate=True):
-        """Give servo_id the ID new_id. Refuses (IdTaken) if a servo answers at new_id,
-        and (DuplicateId) if two servos answer at servo_id: both would move. The answer
-        comes from the old ID; afterwards the servo answers at the new."""
-        check_id(servo_id)
-        if isinstance(new_id, bool) or not isinstance(new_id, int) or \
-                not 0 <= new_id <= P.ID_MAX:
-            raise RangeError("ID %r is out of range 0..253" % (new_id,))
-        if new_id == servo_id:
-            return
-        if check_duplicate and self.duplicate(servo_id):
-            raise DuplicateId(
-                "two servos answer at ID %d: a new ID would go to both (see \"Two servos "
-                "on one ID\" in tools/python/README.md)" % servo_id)
-        self.ping(servo_id)  # the servo to change must be there
-        if check_free:
-            self.refuse_taken(new_id)
-        self.write(servo_id, "id", new_id, check_variant=False)
-        self._variants.pop(servo_id, None)
-
-    def refuse_taken(self, new_id):
-        """IdTaken if a servo answers a PING at new_id: two PINGs with the full time-out,
-        so that one lost or late answer does not make a taken ID look free."""
-        if any(self.present(new_id, timeout=self.full_answer_time()) for _ in range(2)):
-            raise IdTaken("ID %d is already taken on the bus (a servo answered a PING "
-                          "there); choose another ID or move that servo first" % new_id)
-
-    def reset(self, servo_id, check_free=True):
-        """RESET to factory values (ID 1, default baud...); answered with the old ID.
-        Refuses (IdTaken) if another servo answers at ID 1, where this one would land.
-        A servo that does not answer it (status return level 0 or 1) is looked for at
-        ID 1 afterwards."""
-        check_id(servo_id)
-        if check_free and servo_id != 1:
-            self.refuse_taken(1)
-        try:
-            pkt = self.transact(servo_id, P.RESET, what="RESET")
-        except BusTimeout:
-            if not self._reset_took(servo_id):
-                raise
-            pkt = None
-        if pkt is None and self._reset_took(servo_id):
-            self.confirmed = True
-        self.commit_wait = self.commit_budget.commit(self.budget_key(servo_id))
-        if servo_id != 1:
-            self.commit_budget.moved(self.budget_key(servo_id), self.budget_key(1))
-        self._variants.clear()
-        self._levels.pop(servo_id, None)
-        self._levels.pop(1, None)
-
-    def _reset_took(self, servo_id):
-        """After a RESET that was not answered: does a servo at factory settings answer
-        at ID 1 (level 2 again: it answers READ)?"""
-        deadline = time.monotonic() + RESET_SETTLE_S
-        while True:
-            saved, self.timeout = self.timeout, None
-            try:
-                if self.read_raw(1, 16, 1)[0] == 2:
-                    return True
-            except ProtocolError:  # garbled at ID 1: it landed on another servo there
-                if servo_id != 1 and not self.present(servo_id):
-                    return True
-            except ServoBusError:
-                pass
-            finally:
-                self.timeout = saved
-            if time.monotonic() > deadline:
-                return False
-            time.sleep(0.05)
+def _check_span(address, count):
+    """RangeError unless address and count are ints inside the table."""
+    V.strict_integer(address, "address")
+    V.strict_integer(count, "count")
+    if not (0 <= address < TABLE_SIZE and 1 <= count <= TABLE_SIZE - address):
+        raise RangeError("READ %d bytes from %d is outside the table (addresses 0-%d)"
+                         % (count, address, TABLE_SIZE - 1))

@@ -9,11 +9,19 @@ class ServoBusError(Exception):
 
 
 class BusTimeout(ServoBusError):
-    """No (complete) status packet arrived in time."""
+    """No (complete) status packet arrived in time. update_mode: True when the servo
+    was found waiting in its bootloader's update mode (the message says so)."""
+
+    update_mode = False
 
     def __init__(self, message, servo_id=None):
         super().__init__(message)
         self.servo_id = servo_id
+
+
+class Interrupted(ServoBusError):
+    """A job cut short because the Bus's stop_event was set (Servo Studio's STOP): at
+    the next packet boundary, before anything more was sent."""
 
 
 class ProtocolError(ServoBusError):
@@ -21,7 +29,8 @@ class ProtocolError(ServoBusError):
 
 
 class RangeError(ServoBusError, ValueError):
-    """A value is outside the register's range; nothing was sent."""
+    """A value refused before anything was sent: out of its range, not a number, not a
+    whole number, the wrong type, missing (servobus/values.py words it)."""
 
 
 class UnknownRegister(ServoBusError, KeyError):
@@ -56,6 +65,7 @@ class StatusError(ServoBusError):
         self.what = what
         self.params = params
         self.bits = describe_err(err)
+        self.hint = hint
         message = "ID %d %s %s (ERR 0x%02X: %s)" % (
             servo_id, self.verb, what, err, ", ".join(self.bits))
         if hint:
@@ -97,7 +107,11 @@ def status_error(servo_id, err, what, hint="", params=b"", motion=False):
         return ChecksumError(servo_id, err, what,
                              "noise on the wire: check wiring, termination (register 20) "
                              "and that the host and the servo use the same baud rate")
-    return ServoFault(servo_id, err, what, hint, params)
+    # A fault bit is a live condition, not a refusal of this request: the request's
+    # refusal hint does not apply to it.
+    return ServoFault(servo_id, err, what, "the request was carried out; a protection "
+                      "that unloaded stays latched (torque off, motion refused) until the "
+                      "cause is gone and clear_unload 1 is written", params)
 
 
 class UpdateError(ServoBusError):

@@ -13,8 +13,9 @@ import time
 from collections import namedtuple
 
 from . import protocol as P
-from .errors import (BusTimeout, ProtocolError, RangeError, ServoBusError, ServoFault,
-                     status_error)
+from . import values as V
+from .errors import (BusTimeout, Interrupted, ProtocolError, RangeError, ServoBusError,
+                     ServoFault, status_error)
 from .budget import CommitBudget
 from .registers import BAUD_RATES
 from .transport import open_transport
@@ -32,19 +33,13 @@ SLACK_S = 0.06
 TCP_SLACK_S = 0.14
 # Seconds a Bus(timeout=...) may be: more than 0, at most an hour.
 TIMEOUT_RANGE = (0.001, 3600.0)
+# With a stop_event, every wait looks at it this often: a STOP is seen within 10 ms.
+STOP_POLL_S = 0.01
 
 
 def check_id(servo_id, broadcast=False):
-    """RangeError unless servo_id is 0-253 (or 254, broadcast, where allowed)."""
-    top = P.BROADCAST if broadcast else P.ID_MAX
-    if isinstance(servo_id, bool) or not isinstance(servo_id, int) or \
-            not 0 <= servo_id <= top:
-        if servo_id == P.BROADCAST:
-            raise RangeError("ID 254 is the broadcast ID: nobody answers it (except a "
-                             "broadcast PING, which scan() sends); give one servo's ID "
-                             "0-253")
-        raise RangeError("ID %r is not a servo ID (0-253%s)" % (
-            servo_id, ", or 254 to broadcast" if broadcast else ""))
+    """RangeError unless servo_id is an int 0-253 (or 254, broadcast, where allowed)."""
+    V.servo_id(servo_id, broadcast=broadcast, strict=True)
 
 
 def answer_shape(ins, params=b""):
@@ -97,9 +92,19 @@ class Link:
         # state file. commit_wait: seconds the last EEPROM write may wait for flash.
         self.commit_budget = CommitBudget()
         self.commit_wait = None
+        # A threading.Event (or None): once set, every wait and every packet about to be
+        # sent is cut short with Interrupted, at a packet boundary (Servo Studio's STOP).
+        self.stop_event = None
+        self._stop_seen = None  # when a wait first saw stop_event set
+        self.packets_sent = 0  # every packet this Bus put on the wire
+        # A function tap(direction, bytes, time.monotonic()) or None: every packet sent
+        # ("tx") and every chunk of bytes received ("rx"), for a wire console.
+        self.tap = None
         self._t = open_transport(port, baud)
 
     def budget_key(self, servo_id):
+        """The commit budget's key for a servo on this port."""
+        check_id(servo_id)
         return "%s#%d" % (self.port, servo_id)
 
     # ---- plumbing -------------------------------------------------------------------
@@ -133,6 +138,7 @@ class Link:
 
     def full_answer_time(self, nbytes=7):
         """The answer time-out computed from the baud rate, whatever Bus(timeout=)."""
+        V.strict_integer(nbytes, "answer bytes", 0, 0x10000)
         return P.MAX_RETURN_DELAY_S + nbytes * P.byte_time(self.baud) + self.slack()
 
     def slack(self):
@@ -149,8 +155,55 @@ class Link:
         """Wait until no late answer to an earlier request can still arrive, then drop
         whatever has arrived: stale bytes are never taken for the next answer."""
         while time.monotonic() < self._quiet_at:
-            self._t.read(self._quiet_at)
+            self._read(self._quiet_at)
         self._t.flush_input()
+
+    # ---- cut short by stop_event --------------------------------------------------
+
+    def check_stop(self):
+        """Interrupted if stop_event is set: called before every packet is sent."""
+        if self.stop_event is not None and self.stop_event.is_set():
+            raise Interrupted("cut short by STOP: nothing more was sent")
+
+    def pause(self, seconds):
+        """Sleep for seconds; with a stop_event, Interrupted as soon as it is set."""
+        V.seconds(seconds, "pause", 0.0, 3600.0)
+        if self.stop_event is None:
+            time.sleep(seconds)
+        elif self.stop_event.wait(seconds):
+            raise Interrupted("cut short by STOP: nothing more was sent")
+
+    def _read(self, deadline, parser=None):
+        """Bytes that arrive before deadline (b'' if none). With a stop_event the wait
+        is cut into STOP_POLL_S slices; once it is set, Interrupted — at a packet
+        boundary: a packet already arriving (the parser holds its start) is read to its
+        end first, at most its own time on the wire, so that nothing is sent into it."""
+        if self.stop_event is None:
+            return self._tapped(self._t.read(deadline))
+        if not self.stop_event.is_set():
+            self._stop_seen = None
+        else:
+            now = time.monotonic()
+            if self._stop_seen is None:
+                self._stop_seen = now
+            if now >= self._stop_seen + self._rest_of_packet(parser):
+                self._stop_seen = None
+                raise Interrupted("cut short by STOP: nothing more was sent")
+        return self._tapped(self._t.read(min(deadline, time.monotonic() + STOP_POLL_S)))
+
+    def _tapped(self, data):
+        if data and self.tap is not None:
+            self.tap("rx", data, time.monotonic())
+        return data
+
+    def _rest_of_packet(self, parser):
+        """Seconds until the packet the parser holds the start of has arrived: 0 when it
+        holds none; LEN tells its length once its first 4 bytes are in."""
+        held = parser.pending() if parser is not None else 0
+        if not held:
+            return 0.0
+        total = parser.buf[3] + 4 if held >= 4 else 8
+        return max(0, total - held) * P.byte_time(self.baud) + 0.02
 
     def _late_until(self, sent, nbytes):
         """After a request that went unanswered, an answer to it may still arrive until
@@ -161,23 +214,43 @@ class Link:
     def send(self, servo_id, ins, params=b""):
         """Put one instruction packet on the bus (stale input is drained first)."""
         check_id(servo_id, broadcast=True)
+        V.strict_integer(ins, "instruction", 0, 0xFF)
+        params = V.data(params, "parameters")
         try:
             pkt = P.instruction(servo_id, ins, params)
         except ValueError as e:
             raise RangeError(str(e)) from None
         self._drain()
-        self._t.write(pkt)
-        self._sent_at = time.monotonic()
+        self.check_stop()
+        self._put(pkt)
         return pkt
+
+    def _put(self, pkt):
+        """Write one packet to the transport (counted in packets_sent)."""
+        self._t.write(pkt)
+        self.packets_sent += 1
+        self._sent_at = time.monotonic()
+        if self.tap is not None:
+            self.tap("tx", bytes(pkt), self._sent_at)
 
     def receive(self, servo_id, sent, nbytes, what, shape=None):
         """The status packet from servo_id answering `sent` (an exact echo of `sent`, as
         some adapters give, is skipped; so is a packet not shaped as the answer)."""
+        check_id(servo_id)
+        what = str(what) or "the request"
+        sent = V.data(sent, "the request sent")
+        V.strict_integer(nbytes, "answer bytes", 0, 0x10000)
+        if shape is not None and not callable(shape):
+            raise RangeError("shape %r is not a function of a status packet" % (shape,))
         parser = P.StatusParser()
         deadline = time.monotonic() + self.answer_timeout(nbytes)
         corrupt = misshaped = None
         while True:
-            data = self._t.read(deadline)
+            try:
+                data = self._read(deadline, parser)
+            except Interrupted:
+                self._late_until(sent, nbytes)  # its answer may still come: drained later
+                raise
             if not data and time.monotonic() >= deadline:
                 break
             for pkt in parser.feed(data):
@@ -222,7 +295,9 @@ class Link:
         Returns the StatusPacket, or None for broadcast and for an instruction sent to a
         servo whose status return level (register 16) keeps it silent (self.confirmed
         is then False: the caller verifies what it can)."""
-        what = what or P.INSTRUCTION_NAMES.get(ins, "instruction 0x%02X" % ins)
+        V.strict_integer(ins, "instruction", 0, 0xFF)
+        V.strict_integer(nbytes, "answer bytes", 0, 0x10000)
+        what = str(what or P.INSTRUCTION_NAMES.get(ins, "instruction 0x%02X" % ins))
         check_id(servo_id, broadcast=ins not in (P.PING, P.READ))
         self.confirmed = True
         silent = servo_id != P.BROADCAST and ins not in (P.PING, P.READ) and \
@@ -240,8 +315,10 @@ class Link:
             if ins == P.READ and self._levels.get(servo_id) != 1 and \
                     self.present(servo_id, timeout=self.full_answer_time()):
                 pkt = self._read_again(servo_id, params, nbytes, what)
-            elif ins in (P.PING, P.READ):
+            elif ins == P.PING or self._levels.get(servo_id) == 1:
                 raise
+            elif ins == P.READ:
+                raise self.silent(servo_id, e) from None  # absent, or in update mode
             else:
                 return self._unanswered(servo_id, e)
         if ins == P.READ and self._levels.get(servo_id) == 0:
@@ -274,8 +351,8 @@ class Link:
         register 16 keeps the servo silent (self.confirmed False), else e raised."""
         try:  # a servo that answers PING but not this: register 16 keeps it silent
             level = self.status_return_level(servo_id)
-        except BusTimeout:
-            raise e from None
+        except BusTimeout as absent:  # nothing answers: e, unless update mode is named
+            raise absent if absent.update_mode else e from None
         if level >= 2:
             raise e
         self.confirmed = False
@@ -291,6 +368,7 @@ class Link:
     def known_level(self, servo_id):
         """The status return level this Bus has found for servo_id (2 until it has seen
         the servo keep silent)."""
+        check_id(servo_id)
         return self._levels.get(servo_id, 2)
 
     def status_return_level(self, servo_id):
@@ -298,6 +376,7 @@ class Link:
         READ it; if that is not answered but PING is, the level is 0. BusTimeout if the
         servo answers neither. The level is remembered, so that later instructions to a
         silent servo are sent without waiting for an answer that will not come."""
+        check_id(servo_id)  # before the READ: a refused ID is not "level 2"
         saved, self.timeout = self.timeout, None  # not a short Bus(timeout=) here
         try:
             level = self.read_raw(servo_id, 16, 1)[0]
@@ -307,6 +386,8 @@ class Link:
             level = 0
         except ServoFault as e:  # a live fault bit: the answer is there all the same
             level = e.params[0] if len(e.params) == 1 else 2
+        except Interrupted:  # a STOP goes through every check
+            raise
         except ServoBusError:
             return 2
         finally:
@@ -320,21 +401,29 @@ class Link:
     # ---- discovery ------------------------------------------------------------------
 
     def ping(self, servo_id):
-        """PING one servo. Returns its live ERR byte (0 = healthy); BusTimeout if absent."""
-        pkt = self.transact(servo_id, P.PING, what="PING")
+        """PING one servo. Returns its live ERR byte (0 = healthy); BusTimeout if absent
+        (saying so if it waits in its bootloader's update mode)."""
+        try:
+            pkt = self.transact(servo_id, P.PING, what="PING")
+        except BusTimeout as e:
+            raise self.silent(servo_id, e) from None
         return pkt.ping_err()
 
     def present(self, servo_id, timeout=None):
-        """True if servo_id answers a PING."""
+        """True if servo_id answers a PING (within timeout seconds, if given)."""
         check_id(servo_id)
+        if timeout is not None:
+            V.seconds(timeout, "time-out", TIMEOUT_RANGE[0], TIMEOUT_RANGE[1])
         saved = self.timeout
         if timeout is not None:
             self.timeout = timeout
         try:
-            self.ping(servo_id)
+            self.transact(servo_id, P.PING, what="PING")  # not ping(): no update-mode check
             return True
         except BusTimeout:
             return False
+        except Interrupted:  # a STOP goes through every check
+            raise
         except ServoBusError:
             return True  # it answered, if with an error or garbled (two servos?)
         finally:

@@ -4,6 +4,7 @@ import time
 from collections import namedtuple
 
 from . import protocol as P
+from . import values as V
 from .errors import RangeError, ServoBusError
 from .link import _MOTION_HINT
 from .registers import REGISTERS
@@ -17,6 +18,7 @@ class Motion:
     """Motion commands (a mixin of Bus: it uses Link's transactions and Control's writes)."""
 
     def position_register(self, servo_id):
+        """The register that holds servo_id's present position (§8)."""
         v = self.variant(servo_id)
         return v.position_register if v else REGISTERS["turned_angle"]
 
@@ -39,21 +41,65 @@ class Motion:
         """Speed 0: stops whatever the motor is doing (PROTOCOL.md rule 3)."""
         self.write(servo_id, "moving_speed", 0)
 
+    def stop_all_now(self):
+        """Moving speed 0 to every servo (broadcast) at once: what a STOP button sends.
+        It does not wait for a late answer to an earlier request to pass, nor look at
+        stop_event: a STOP is never late. It does not go into an answer either: an
+        interrupted wait returns at a packet boundary (Link._read), and a servo that
+        has yet to answer holds its answer while a packet arrives (PROTOCOL.md §1;
+        src/link.c: never talk over a frame that is still arriving)."""
+        address, data = self.encode({"moving_speed": 0})
+        pkt = P.instruction(P.BROADCAST, P.WRITE, bytes([address]) + data)
+        self._t.flush_input()
+        self._put(pkt)
+        return pkt
+
     def brake(self, servo_id, on=True):
         self.write(servo_id, "brake", 1 if on else 0)
 
     def start_end(self, servo_id, what):
         """START/END: 'start' makes the present position 0 and the CW limit; 'end' makes
         it the CCW limit."""
-        code = {"start": 1, "end": 2}.get(what, what)
+        codes = {"start": 1, "end": 2, 1: 1, 2: 2}
+        if isinstance(what, bool) or not isinstance(what, (str, int)) or what not in codes:
+            raise RangeError("START/END: %r is not 'start' or 'end'" % (what,))
+        code = codes[what]
+        before = self._limits_for_budget(servo_id)
         self.transact(servo_id, P.START_END, bytes([code]), "START/END %s" % what,
                       motion=True)
+        self._limits_committed(servo_id, before)
+
+    # ---- the commit budget of what the servo sets itself (budget.py) ----------------
+
+    def _limits_for_budget(self, servo_id):
+        """The angle limits (registers 6-9) before a command that sets them itself, or
+        None (broadcast, or not readable: the estimate then counts a commit)."""
+        if servo_id == P.BROADCAST:
+            return None
+        try:
+            return self.read_raw(servo_id, REGISTERS["cw_angle_limit"].address, 4)
+        except ServoBusError:
+            return None
+
+    def _limits_committed(self, servo_id, before):
+        """The servo commits its limits when they changed (START/END, homing done)."""
+        if servo_id == P.BROADCAST:
+            return
+        if before is not None and self._limits_for_budget(servo_id) == before:
+            return
+        self.commit_wait = self.commit_budget.commit(self.budget_key(servo_id))
 
     def trajectory_write(self, servo_id, points, point_size=None):
         """TRAJECTORY WRITE of [(angle, speed), ...] (position units, units/s; speed > 0).
         The 4-byte point form is used when it fits (63 points), else the 3-byte form
         (speeds up to 255, 84 points). An empty list clears the stored trajectory."""
-        points = [(int(a), int(s)) for a, s in points]
+        if not isinstance(points, (list, tuple)) or not all(
+                isinstance(p, (list, tuple)) and len(p) == 2 for p in points):
+            raise RangeError("trajectory points: give a list of (angle, speed) pairs")
+        points = [(V.strict_integer(a, "trajectory angle"),
+                   V.strict_integer(s, "trajectory speed")) for a, s in points]
+        if point_size not in (None, 3, 4) or isinstance(point_size, bool):
+            raise RangeError("point size %r: give 3, 4 or None" % (point_size,))
         for a, s in points:
             if not 0 <= a <= 0xFFFF:
                 raise RangeError("trajectory angle %d is out of range 0..65535" % a)
@@ -81,11 +127,15 @@ class Motion:
     def move_relative(self, servo_id, delta, speed, acc=None, dec=None):
         """CUSTOM MOVE sub 1: move by delta position units (sign = direction) at speed
         (units/s), with acceleration/deceleration (registers 34/35 units) if given."""
+        V.strict_integer(delta, "CUSTOM MOVE distance", -0xFFFF, 0xFFFF)
+        V.strict_integer(speed, "CUSTOM MOVE speed", -0x7FFF, 0x7FFF)
         return self._custom(servo_id, 0x01, abs(delta), (0x8000 if delta < 0 else 0) |
                             abs(speed), acc, dec, "CUSTOM MOVE relative %+d" % delta)
 
     def move_absolute(self, servo_id, position, speed, acc=36, dec=36):
         """CUSTOM MOVE sub 2: absolute move to position at speed with ramps."""
+        V.strict_integer(position, "CUSTOM MOVE position")
+        V.strict_integer(speed, "CUSTOM MOVE speed", -0x7FFF, 0x7FFF)
         return self._custom(servo_id, 0x02, position, abs(speed), acc, dec,
                             "CUSTOM MOVE to %d" % position)
 
@@ -99,6 +149,7 @@ class Motion:
             raise RangeError("%s: give both acceleration and deceleration, or neither" % what)
         if acc is not None:
             for name, v in (("acceleration", acc), ("deceleration", dec)):
+                V.strict_integer(v, "%s: %s" % (what, name))
                 if not 0 <= v <= 255:
                     raise RangeError("%s: %s %d is out of range 0..255" % (what, name, v))
             params += bytes([acc, dec])
@@ -108,7 +159,9 @@ class Motion:
 
     def home(self, servo_id):
         """Start homing (register 24 = 1); see homing_status()/wait_homed()."""
+        before = self._limits_for_budget(servo_id)
         self.write(servo_id, "homing", 1)
+        self.__dict__.setdefault("_homing_limits", {})[servo_id] = before
 
     def stop_homing(self, servo_id):
         self.write(servo_id, "homing", 0)
@@ -118,10 +171,17 @@ class Motion:
         high nibble 0 never, 1 running, 2 done, 3 failed)."""
         raw = self.read(servo_id, "homing")
         state = raw >> 4
+        homing = self.__dict__.get("_homing_limits", {})
+        if state != 1 and servo_id in homing:  # over: done commits the limits it measured
+            before = homing.pop(servo_id)
+            if state == 2:
+                self._limits_committed(servo_id, before)
         return HomingStatus(raw & 0x0F, state, HOMING_STATES.get(state, "state %d" % state))
 
     def wait_homed(self, servo_id, timeout=30.0, poll=0.1):
         """Wait until homing is done; raise ServoBusError if it failed or timed out."""
+        V.seconds(timeout, "homing time-out", 0.0, 86400.0)
+        V.seconds(poll, "poll interval", 0.0, 60.0)
         deadline = time.monotonic() + timeout
         while True:
             st = self.homing_status(servo_id)
@@ -137,5 +197,5 @@ class Motion:
                         servo_id, timeout, st.text,
                         " — it never started (no photo switches on a foot or base)"
                         if st.state == 0 else ""))
-            time.sleep(poll)
+            self.pause(poll)
 

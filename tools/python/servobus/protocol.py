@@ -1,21 +1,39 @@
 """Wire format of the servo bus (PROTOCOL.md §2-§4): packet builder, status packet
 parser, instruction codes and ERR bits. Pure functions, no I/O."""
 
-HEADER = b"\xD5\x5D"
-BROADCAST = 0xFE
+import json
+import os
+
+# The instruction table, the ERR bits and the header, as the firmware defines them:
+# protocol.json is written by `regdoc --protocol-json` from src/dispatch.c and
+# include/proto.h (`make docs`), and CTest's docs.protocol_json fails when it drifts. A
+# name looked up below that the firmware no longer has fails at import.
+_JSON = os.path.join(os.path.dirname(os.path.abspath(__file__)), "protocol.json")
+with open(_JSON, encoding="ascii") as _f:
+    TABLE = json.load(_f)
+_INS = {i["name"]: i for i in TABLE["instructions"]}
+_ERR = {e["name"]: e["bit"] for e in TABLE["err_bits"]}
+
+HEADER = bytes(TABLE["header"])
+BROADCAST = TABLE["broadcast_id"]
 ID_MAX = 253
 
-PING = 0x01
-READ = 0x02
-WRITE = 0x03
-REG_WRITE = 0x04
-ACTION = 0x05
-RESET = 0x06
-START_END = 0x07
-TRAJ_WRITE = 0x0A
-TRAJ_ACTION = 0x0B
-SYNC_WRITE = 0x83
-CUSTOM = 0xFF
+PING = _INS["ping"]["code"]
+READ = _INS["read"]["code"]
+WRITE = _INS["write"]["code"]
+REG_WRITE = _INS["reg_write"]["code"]
+ACTION = _INS["action"]["code"]
+RESET = _INS["reset"]["code"]
+START_END = _INS["start_end"]["code"]
+TRAJ_WRITE = _INS["trajectory_write"]["code"]
+TRAJ_ACTION = _INS["trajectory_action"]["code"]
+SYNC_WRITE = _INS["sync_write"]["code"]
+CUSTOM = _INS["custom"]["code"]
+
+# Instructions after which the servo commits what changed in its EEPROM registers to
+# flash, spending one token of its commit budget (budget.py). Homing's measured limits
+# are committed too, when it completes; REG WRITE commits at its ACTION.
+COMMITS = frozenset(i["code"] for i in TABLE["instructions"] if "commits" in i["flags"])
 
 INSTRUCTION_NAMES = {
     PING: "PING", READ: "READ", WRITE: "WRITE", REG_WRITE: "REG WRITE", ACTION: "ACTION",
@@ -23,13 +41,13 @@ INSTRUCTION_NAMES = {
     TRAJ_ACTION: "TRAJECTORY ACTION", SYNC_WRITE: "SYNC WRITE", CUSTOM: "CUSTOM",
 }
 
-ERR_OVER_TEMPERATURE = 0x01
-ERR_OVER_CURRENT = 0x02
-ERR_OVER_VOLTAGE = 0x04
-ERR_UNDER_VOLTAGE = 0x08
-ERR_CHECKSUM = 0x10
-ERR_INSTRUCTION = 0x20
-ERR_STALL = 0x40
+ERR_OVER_TEMPERATURE = _ERR["over_temperature"]
+ERR_OVER_CURRENT = _ERR["over_current"]
+ERR_OVER_VOLTAGE = _ERR["over_voltage"]
+ERR_UNDER_VOLTAGE = _ERR["under_voltage"]
+ERR_CHECKSUM = _ERR["checksum"]
+ERR_INSTRUCTION = _ERR["instruction"]
+ERR_STALL = _ERR["stall"]
 ERR_FAULTS = (ERR_OVER_TEMPERATURE | ERR_OVER_CURRENT | ERR_OVER_VOLTAGE |
               ERR_UNDER_VOLTAGE | ERR_STALL)
 
@@ -160,8 +178,8 @@ def u16(value):
 
 # ---- firmware update (§10): YMODEM blocks in CUSTOM frames, sub-commands 0xFC/0xFE ----
 
-UPDATE_ENTER = 0xFC
-UPDATE_BLOCK = 0xFE
+UPDATE_ENTER = TABLE["update_subs"]["enter"]
+UPDATE_BLOCK = TABLE["update_subs"]["block"]
 UPDATE_HEADER = 0x01
 UPDATE_DATA = 0x02
 UPDATE_EOF = 0x04

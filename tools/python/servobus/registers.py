@@ -7,6 +7,7 @@ import math
 import os
 import re
 
+from . import values as V
 from .errors import RangeError, UnknownRegister
 
 _JSON = os.path.join(os.path.dirname(os.path.abspath(__file__)), "registers.json")
@@ -96,8 +97,7 @@ class Register:
     def encode(self, value):
         """The raw value for a value in the register's unit; RangeError (nothing sent) if
         it does not fit the register's range."""
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise RangeError("%s: %r is not an integer" % (self.name, value))
+        V.strict_integer(value, self.name)
         lo, hi = self.value_range()
         if not lo <= value <= hi:
             raise RangeError("%s: %d is out of range %d..%d%s" % (
@@ -117,6 +117,16 @@ class Register:
         if self.unit == "temperature" and self.max > 0x7F:
             return (-0x7F, 0x7F)
         return (self.min, self.max)
+
+    def _accepted(self):
+        """What parse() accepts, for a refusal: ' (0..255, 500 us; or with a unit: 8ms)'."""
+        lo, hi = self.value_range()
+        factor, unit = self.scale()
+        example = {"deg": "90deg", "deg/s": "45deg/s", "deg/s^2": "360deg/s^2",
+                   "ms": "8ms", "A": "2.5A", "C": "60C"}.get(unit)
+        return " (%d..%d%s%s)" % (lo, hi, ", " + UNIT_TEXT[self.unit]
+                                   if self.unit in UNIT_TEXT else "",
+                                   "; or with its unit, e.g. " + example if example else "")
 
     def _range_note(self):
         if self.unit == "dir_speed":
@@ -154,7 +164,15 @@ class Register:
     def parse(self, text, resolution=10):
         """The register's value from user text: an integer in the register's unit
         ('90', '-100', '0x20') or a physical quantity with its unit ('90deg', '45 deg/s',
-        '8ms', '2.5A', '60C'). Raises RangeError for what does not fit."""
+        '8ms', '2.5A', '60C'), or a JSON number. Raises RangeError for what does not fit
+        (values.py words it: empty, not a number, not a whole number, out of range)."""
+        try:
+            if isinstance(text, bool) or not isinstance(text, (str, int, float)):
+                V.integer(text, self.name)  # the sentence for a value of the wrong type
+            if isinstance(text, float):
+                text = V.integer(text, self.name)  # 7.0 is 7; 7.9 is refused, not cut
+        except RangeError as e:
+            raise RangeError(str(e) + self._accepted()) from None
         text = str(text).strip()
         value = None
         for base in (0, 10):  # 0x20, 0b101; then 010 as decimal
@@ -178,7 +196,10 @@ class Register:
                 raise RangeError("%s: '%s' is out of range" % (self.name, text))
             value = round(number / factor)
         elif value is None:
-            raise RangeError("%s: '%s' is not a number" % (self.name, text))
+            try:
+                value = V.integer(text, self.name)  # 1e3, 7.0; or why not: empty, 7.9
+            except RangeError as e:
+                raise RangeError(str(e) + self._accepted()) from None
         self.encode(value)  # range check
         return value
 
@@ -211,3 +232,17 @@ def register(key):
     raise UnknownRegister("no register named '%s'%s" % (
         key, "; did you mean %s?" % ", ".join(close) if close else
         "; `servoctl dump` lists them"))
+
+
+def decode_table(data, first=0, variant=None):
+    """{register name: value} of the registers wholly inside data (bytes READ from
+    address `first`); None for a write-only register or one not on `variant`."""
+    out = {}
+    for r in REGISTERS.values():
+        if first <= r.address and r.address + r.size <= first + len(data):
+            if not r.readable or not r.applies_to(variant):
+                out[r.name] = None
+                continue
+            off = r.address - first
+            out[r.name] = r.decode(int.from_bytes(data[off:off + r.size], "little"))
+    return out

@@ -7,12 +7,11 @@ from collections import namedtuple
 
 from . import image as I
 from . import protocol as P
-from .errors import (BusTimeout, RangeError, ServoBusError, UpdateError, UpdateRefused,
-                     UpdateTimeout)
+from . import values as V
+from .errors import (BusTimeout, Interrupted, RangeError, ServoBusError, UpdateError,
+                     UpdateRefused, UpdateTimeout)
+from .discovery import IN_UPDATE_MODE
 from .link import check_id
-
-IN_UPDATE_MODE = ("it waits in its bootloader's update mode (its application is damaged, "
-                  "or a new image did not confirm itself within 3 starts)")
 
 UpdateStats = namedtuple("UpdateStats",
                          "frames resent bytes_out bytes_in transfer_s restart_s")
@@ -43,6 +42,7 @@ class Update:
         """Seconds to wait for the answer to an update frame of frame_bytes: the frame and
         its answer on the wire, the longest return delay, the servo's flash work, slack.
         Bus(timeout=...) overrides it."""
+        V.strict_integer(frame_bytes, "frame bytes", 0, 0x10000)
         if self.timeout is not None:
             return self.timeout
         return (P.MAX_RETURN_DELAY_S + (frame_bytes + P.UPDATE_ANSWER_BYTES) *
@@ -70,23 +70,39 @@ class Update:
         included), bytes_in (the answers taken), transfer_s (enter to the end-of-batch
         answer) and restart_s (from there to the version read)."""
         check_id(servo_id)
-        try:
-            image = bytes(image)
-        except (TypeError, ValueError):
-            raise RangeError("the image is bytes, not %s" % type(image).__name__) from None
-        if not image:
-            raise I.ImageError("an empty image (0 bytes): nothing to send (its header "
-                               "block would read as the end of batch)")
+        image = _image_bytes(image)
         if isinstance(retries, bool) or not isinstance(retries, int) or \
                 not 0 <= retries <= 100:
             raise RangeError("retries %r: give 0..100" % (retries,))
+        for name, fn in (("progress", progress), ("notify", notify)):
+            if fn is not None and not callable(fn):
+                raise RangeError("%s: %r is not a function (or None)" % (name, fn))
+        V.seconds(restart_timeout, "restart time-out", 0.0, 3600.0)
         if notify is None:
             def notify(text):
                 print("servobus: note: " + text, file=sys.stderr)
         self.update_step = None
         self.update_mode = False
-        expect_version = None
         info = I.validate(image) if check else None
+        self._before_update(servo_id, image, check, notify)
+        expect_version = info.version if info is not None else _version_of(image)
+        t0 = time.monotonic()
+        self._send_image(servo_id, image, retries, progress)
+        t1 = time.monotonic()
+        self.update_step = "restart"
+        self._variants.pop(servo_id, None)
+        self._levels.pop(servo_id, None)
+        version = self._await_restart(servo_id, restart_timeout, expect_version)
+        self.update_step = None
+        self.commit_budget.restarted(self.budget_key(servo_id))  # full after a restart
+        self.update_stats = UpdateStats(*self._ustats, transfer_s=t1 - t0,
+                                        restart_s=time.monotonic() - t1)
+        return version
+
+    def _before_update(self, servo_id, image, check, notify):
+        """Is the servo there, and is the image for its model (with check)? A servo
+        that does not answer PING may wait in update mode: notify says so, and the
+        update goes ahead either way."""
         # Two PINGs with the full time-out: one lost answer does not skip the model check
         # (a late answer is drained before the next request, never taken for it).
         if any(self.present(servo_id, timeout=self.full_answer_time()) for _ in range(2)):
@@ -109,13 +125,9 @@ class Update:
         else:
             notify("ID %d answers neither PING nor the update handshake at %d baud: "
                    "trying the update all the same" % (servo_id, self.baud))
-        if info is not None:
-            expect_version = info.version
-        else:
-            try:
-                expect_version = I.parse(image).version
-            except I.ImageError:
-                pass
+
+    def _send_image(self, servo_id, image, retries, progress):
+        """Every §10 frame of the image, each until it is answered, with progress."""
         frames = P.update_frames(servo_id, image)
         blocks = sum(1 for step, _, _ in frames if step.startswith("data block"))
         done = sent = 0
@@ -123,7 +135,6 @@ class Update:
         self.update_stats = None
         if progress:
             progress(0, blocks, 0, len(image))
-        t0 = time.monotonic()
         for step, frame, nbytes in frames:
             self.update_step = step  # what Ctrl-C interrupts (servoctl says so)
             self._update_step(servo_id, step, frame, retries)
@@ -132,16 +143,6 @@ class Update:
                 sent += nbytes
                 if progress:
                     progress(done, blocks, sent, len(image))
-        t1 = time.monotonic()
-        self.update_step = "restart"
-        self._variants.pop(servo_id, None)
-        self._levels.pop(servo_id, None)
-        version = self._await_restart(servo_id, restart_timeout, expect_version)
-        self.update_step = None
-        self.commit_budget.restarted(self.budget_key(servo_id))  # full after a restart
-        self.update_stats = UpdateStats(*self._ustats, transfer_s=t1 - t0,
-                                        restart_s=time.monotonic() - t1)
-        return version
 
     def _update_step(self, servo_id, step, frame, retries):
         """Send one update frame until it is answered with the expected code: the
@@ -151,7 +152,8 @@ class Update:
         last = ""
         for attempt in range(retries + 1):
             self._drain()
-            self._t.write(frame)
+            self.check_stop()
+            self._put(frame)
             self._ustats[0] += 1
             self._ustats[1] += attempt > 0
             self._ustats[2] += len(frame)
@@ -204,7 +206,11 @@ class Update:
         in_echo = True
         corrupt = None
         while True:
-            data = self._t.read(deadline)
+            try:
+                data = self._read(deadline, parser)
+            except Interrupted:
+                self._late_until(sent, P.UPDATE_ANSWER_BYTES)
+                raise
             if not data:
                 if time.monotonic() >= deadline:
                     break
@@ -236,7 +242,7 @@ class Update:
         firmware version (register 2); until it is expect_version if that is known.
         None if it answers PING but not READ (status return level 0)."""
         deadline = time.monotonic() + timeout
-        time.sleep(0.02)  # the servo restarts once its last answer is out
+        self.pause(0.02)  # the servo restarts once its last answer is out
         version = None
         while True:
             try:
@@ -247,11 +253,13 @@ class Update:
             except BusTimeout:
                 if self._levels.get(servo_id) == 0:  # PING answered, READ not
                     return None
+            except Interrupted:  # a STOP goes through every check
+                raise
             except ServoBusError:
                 pass
             if time.monotonic() > deadline:
                 break
-            time.sleep(0.05)
+            self.pause(0.05)
         if version is None:
             if self.in_update_mode(servo_id):
                 self.update_mode = True
@@ -276,3 +284,24 @@ def _update_answer_shape(pkt):
         return True
     return pkt.err == 0 and 1 <= len(pkt.params) <= 2 and \
         pkt.params[0] in (P.READY, P.ACK, P.NAK, P.CAN)
+
+
+def _image_bytes(image):
+    """The image as bytes; RangeError for what is not bytes, ImageError if empty."""
+    try:
+        image = bytes(image)
+    except (TypeError, ValueError):
+        raise RangeError("the image is bytes, not %s" % type(image).__name__) from None
+    if not image:
+        raise I.ImageError("an empty image (0 bytes): nothing to send (its header "
+                           "block would read as the end of batch)")
+    return image
+
+
+def _version_of(image):
+    """The version the image's info block declares, or None (check=False on a file
+    without one)."""
+    try:
+        return I.parse(image).version
+    except I.ImageError:
+        return None

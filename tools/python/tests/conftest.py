@@ -44,8 +44,8 @@ def run_sim(*args, timeout=10):
 class Sim:
     """A running servo-sim. url is tcp://127.0.0.1:PORT."""
 
-    def __init__(self, servos=(), state_dir=None, port=None):
-        self.args = []
+    def __init__(self, servos=(), state_dir=None, port=None, extra=()):
+        self.args = list(extra)
         for s in servos:
             self.args += ["--servo", s]
         if state_dir:
@@ -102,8 +102,8 @@ def sim_factory():
     """Start servo-sims; each is stopped at the end of the test."""
     sims = []
 
-    def start(*servos, state_dir=None, port=None):
-        s = Sim(servos, state_dir, port)
+    def start(*servos, state_dir=None, port=None, extra=()):
+        s = Sim(servos, state_dir, port, extra)
         sims.append(s)
         return s
 

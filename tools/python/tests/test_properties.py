@@ -8,7 +8,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-import servobus.control
+import servobus.identity
 import servobus.link
 from servobus import Bus, ServoBusError
 from servobus import image as I
@@ -111,7 +111,7 @@ def short_bus_times():
     """The Bus tests below run on a wire of given bytes: no return delay to wait for."""
     mp = pytest.MonkeyPatch()
     mp.setattr(P, "MAX_RETURN_DELAY_S", 0.001)
-    mp.setattr(servobus.control, "RESET_SETTLE_S", 0.01)
+    mp.setattr(servobus.identity, "RESET_SETTLE_S", 0.01)
     yield
     mp.undo()
 

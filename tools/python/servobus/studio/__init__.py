@@ -3,14 +3,14 @@
     servoctl studio [--port PORT] [--baud B] [--listen 127.0.0.1:8080]
 
 The studio owns the bus while it runs: one process, one Bus, one worker thread that
-talks to it; every browser tab sees the same state. cli.py hooks it in with
+talks to it; every browser tab sees the same state. cli/args.py hooks it in with
 add_command(); everything else lives in this package."""
 
 DEFAULT_LISTEN = "127.0.0.1:8080"
 
 
 def add_command(add):
-    """Register `studio` with cli.py's add(name, func, help); the bus options
+    """Register `studio` with cli/args.py's add(name, func, help); the bus options
     (--port, --baud) come with it."""
     sp = add("studio", run, "the browser app: scan, control table, motion, live plot, "
              "safety, firmware update (docs/studio.md)")
@@ -20,7 +20,7 @@ def add_command(add):
 
 
 def run(bus, args):
-    """servoctl studio: serve the app on args.listen with the Bus cli.py opened."""
+    """servoctl studio: serve the app on args.listen with the Bus servoctl opened."""
     import sys
     try:
         from .server import serve

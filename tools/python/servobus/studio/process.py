@@ -27,7 +27,8 @@ def run_studio(*args, timeout=30):
 
 
 class Studio:
-    """A running studio on bus_url; .url is the page's address."""
+    """A running studio on bus_url; .url is the page's address with the token, .base
+    the address without it, .token the token."""
 
     def __init__(self, bus_url, *extra, start_timeout=30):
         for attempt in range(5):  # the free port may be taken before the studio binds it
@@ -43,10 +44,14 @@ class Studio:
         if "open http" not in line:
             raise RuntimeError("the studio did not start: %s%s" % (line, self.stderr))
         self.banner = line.strip()
-        self.url = "http://%s/" % self.listen
+        # the address to open, with this process's token (studio/security.py)
+        self.url = self.banner.split(" open ", 1)[1]
+        self.token = self.url.split("?token=", 1)[1]
+        self.base = "http://%s" % self.listen
 
     def _start(self, bus_url, extra, start_timeout):
         """Start it; the line it printed (the address when it serves)."""
+        self.rc = None
         env = dict(os.environ, PYTHONPATH=PYROOT, PYTHONUNBUFFERED="1")
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "servobus", "studio", "--port", bus_url,
@@ -66,7 +71,9 @@ class Studio:
         return line
 
     def stop(self):
-        """SIGTERM (a clean stop); returns the exit status."""
+        """SIGTERM (a clean stop); returns the exit status (again if already stopped)."""
+        if getattr(self, "rc", None) is not None:
+            return self.rc
         if self.proc.poll() is None:
             self.proc.send_signal(signal.SIGTERM)
         try:
@@ -77,4 +84,5 @@ class Studio:
         self.stderr = self.proc.stderr.read()
         self.proc.stdout.close()
         self.proc.stderr.close()
+        self.rc = rc
         return rc

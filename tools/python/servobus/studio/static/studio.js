@@ -32,19 +32,49 @@ function say(text, kind) {
   if (kind === "ok") S.msgTimer = setTimeout(() => { m.className = "message"; }, 6000);
 }
 
+// Every action: JSON (or, for an image, octet-stream: a type no other site may send
+// here without the studio's consent). The server checks every value (servobus/values.py)
+// and answers a sentence; a setting that would lock the servo out comes back with
+// "confirm", and is sent again only if the user says so.
 async function post(path, body, raw) {
   let r;
   try {
-    r = await fetch(path, raw ? { method: "POST", body: raw } :
+    r = await fetch(path, raw ?
+      { method: "POST", headers: { "Content-Type": "application/octet-stream" }, body: raw } :
       { method: "POST", headers: { "Content-Type": "application/json" },
         body: JSON.stringify(body || {}) });
   } catch (e) {
     say("The studio does not answer (was it stopped?): " + e, "error");
     return null;
   }
-  const j = await r.json();
-  if (!j.ok) say(j.error, "error");
-  return j.ok ? j : null;
+  let j = null;
+  try { j = await r.json(); } catch (e) { j = null; }
+  if (!j) {
+    say("The studio answered HTTP " + r.status + " " + r.statusText + " without a sentence.", "error");
+    return null;
+  }
+  if (j.ok) return j;
+  if (j.confirm && !raw) {
+    if (await ask("Write it anyway?", j.confirm, "Write it anyway"))
+      return post(path, Object.assign({}, body, { confirm: true }));
+    say("Not written: " + j.confirm, "");
+    return null;
+  }
+  say(j.error, "error");
+  return null;
+}
+
+// The dialog: title, text, the button that says yes. Resolves true for yes.
+function ask(title, text, yes) {
+  $("confirm-title").textContent = title;
+  $("confirm-text").textContent = text;
+  $("confirm-yes").textContent = yes;
+  $("confirm").classList.remove("hidden");
+  return new Promise((resolve) => { S.answer = resolve; });
+}
+function answer(yes) {
+  $("confirm").classList.add("hidden");
+  if (S.answer) { const r = S.answer; S.answer = null; r(yes); }
 }
 
 function selected() { return S.state ? S.state.selected : null; }
@@ -83,6 +113,7 @@ function show(panel) {
   for (const p of document.querySelectorAll(".panel"))
     p.classList.toggle("active", p.id === "panel-" + panel);
   if (panel === "plot" && S.chart) { S.chart.resize(); S.plotDirty = true; }
+  if (window.expertShow) window.expertShow(panel);
   location.hash = panel;
 }
 for (const b of document.querySelectorAll("nav button"))
@@ -250,27 +281,11 @@ function showValues() {
   }
 }
 
-// The range check before anything is sent: an integer in the register's unit must fit;
-// a value with a unit (90deg) is converted and checked by the server before it sends.
-function checkValue(r, text) {
-  text = text.trim();
-  if (text === "") return "give a value";
-  if (/^[-+]?(0x[0-9a-f]+|\d+)$/i.test(text)) {
-    const n = Number(text.replace(/^\+/, ""));
-    if (n < r.min || n > r.max)
-      return r.name + ": " + n + " is out of range " + r.min + " \u2026 " + r.max +
-        (r.unit_text ? " (" + r.unit_text + ")" : "") + ". Nothing was sent.";
-    return null;
-  }
-  if (/^[-+]?(\d+\.?\d*|\.\d+)\s*[a-z\/\u00b0^2]+$/i.test(text)) return null;
-  return r.name + ": '" + text + "' is not a number. Nothing was sent.";
-}
-
+// The server checks the value (the SDK's one validator, as servoctl does) before it
+// sends anything, and says why it refuses.
 async function writeReg(r, text, msg) {
-  const bad = checkValue(r, text);
-  if (bad) { msg.textContent = bad; say(bad, "error"); return; }
   msg.textContent = "";
-  const res = await post("/api/write", { name: r.name, value: text.trim() });
+  const res = await post("/api/write", { name: r.name, value: text });
   if (!res) { msg.textContent = $("message").textContent; return; }
   S.values[r.name] = res.value;
   showValues();
@@ -283,9 +298,10 @@ async function writeReg(r, text, msg) {
 $("stop").addEventListener("click", async () => {
   if (await post("/api/stop", {})) say("STOP sent: moving speed 0 to every servo.", "ok");
 });
+// The boxes' text as typed: an empty box is refused by the server, never sent as 0.
 $("mv-go").addEventListener("click", async () => {
   const r = await post("/api/move", { goal: $("mv-goal").value, speed: $("mv-speed").value,
-    acc: Number($("mv-acc").value), dec: Number($("mv-dec").value) });
+    acc: $("mv-acc").value, dec: $("mv-dec").value });
   if (r) say("Moving ID " + selected() + " to " + $("mv-goal").value + " deg.", "ok");
 });
 $("sp-go").addEventListener("click", async () => {
@@ -449,7 +465,11 @@ $("unload-save").addEventListener("click", async () => {
   if (r) say("Unload conditions saved (" + r.value + ").", "ok");
 });
 $("clear-unload").addEventListener("click", async () => {
-  if (await post("/api/write", { name: "clear_unload", value: "1" })) say("Unload cleared.", "ok");
+  say("Clearing the unload\u2026 A servo can still see the cause for up to 2 s after it is " +
+      "gone: the studio tries again for that long.", "");
+  const r = await post("/api/write", { name: "clear_unload", value: "1" });
+  if (r) say("Unload cleared" + (r.took > 0.2 ? " after " + r.took + " s (the servo still saw " +
+    "the cause until then)." : "."), "ok");
 });
 async function heartbeat(on) {
   const r = await post("/api/write", { name: "heartbeat_enable", value: on ? "1" : "0" });
@@ -464,9 +484,8 @@ $("hb-off").addEventListener("click", () => heartbeat(false));
 async function sendImage(id, input) {
   const f = input.files[0];
   if (!f) { say("Choose a firmware image file first.", "error"); return; }
-  if (id === null || id === "" || isNaN(Number(id))) { say("Give the servo's ID.", "error"); return; }
   const data = await f.arrayBuffer();
-  if (await post("/api/update?id=" + Number(id) + "&file=" + encodeURIComponent(f.name), null, data))
+  if (await post("/api/update?id=" + encodeURIComponent(id) + "&file=" + encodeURIComponent(f.name), null, data))
     say("Updating ID " + id + " from " + f.name + "\u2026", "ok");
 }
 // What the chosen file says it is: the image's info block (docs/update.md: "SRVI",
@@ -505,8 +524,10 @@ $("id-new").addEventListener("input", () => {
   const t = $("id-new").value;
   const n = Number(t);
   let text = "";
-  if (t === "") text = "IDs are 0\u2013253; the studio PINGs the new ID before it changes anything.";
-  else if (!Number.isInteger(n) || n < 0 || n > 253) text = "ID " + t + " is outside 0\u2013253.";
+  if (t === "") text = "IDs are 0\u2013253; the studio PINGs the new ID at every baud the port reaches before it changes anything.";
+  else if (!Number.isFinite(n)) text = "'" + t + "' is not a number: IDs are 0\u2013253.";
+  else if (!Number.isInteger(n)) text = "ID " + t + " is not a whole number: IDs are 0\u2013253.";
+  else if (n < 0 || n > 253) text = "ID " + t + " is outside 0\u2013253.";
   else if (n === selected()) text = "That is its ID already.";
   else {
     const other = servo(n);
@@ -515,24 +536,21 @@ $("id-new").addEventListener("input", () => {
   $("id-check").textContent = text;
 });
 $("id-go").addEventListener("click", async () => {
-  const r = await post("/api/setid", { new_id: Number($("id-new").value) });
+  const r = await post("/api/setid", { new_id: $("id-new").value });
   if (r) say("The servo answers at ID " + r.id + " now.", "ok");
 });
-$("reset-go").addEventListener("click", () => {
+$("reset-go").addEventListener("click", async () => {
   const s = servo(selected());
   if (!s) { say("No servo selected: scan, then pick one.", "error"); return; }
   const one = s.id !== 1 && servo(1);
-  $("confirm-title").textContent = "Factory reset ID " + s.id + " (" + s.variant + ")?";
-  $("confirm-text").textContent = "Every setting of this servo goes back to its factory value " +
-    "and its ID becomes 1." + (one ? " ID 1 is already used by the " + one.variant +
-    ": afterwards two servos share ID 1 until you give one another ID." : "");
-  $("confirm").classList.remove("hidden");
+  const yes = await ask("Factory reset ID " + s.id + " (" + s.variant + ")?",
+    "Every setting of this servo goes back to its factory value and its ID becomes 1." +
+    (one ? " ID 1 is already used by the " + one.variant + ", so the studio will refuse: " +
+      "give that servo another ID first." : ""), "Reset to factory values");
+  if (yes && await post("/api/reset", { yes: true })) say("Factory reset done; scanning again.", "ok");
 });
-$("confirm-no").addEventListener("click", () => $("confirm").classList.add("hidden"));
-$("confirm-yes").addEventListener("click", async () => {
-  $("confirm").classList.add("hidden");
-  if (await post("/api/reset", {})) say("Factory reset done; scanning again.", "ok");
-});
+$("confirm-no").addEventListener("click", () => answer(false));
+$("confirm-yes").addEventListener("click", () => answer(true));
 $("log-clear").addEventListener("click", () => post("/api/clear", {}));
 
 // ---- start ------------------------------------------------------------------------
@@ -544,18 +562,26 @@ function connect() {
     if (m.type === "state") onState(m.state);
     else if (m.type === "sample") onSample(m);
     else if (m.type === "table") onTable(m);
+    if (window.expert) window.expert(m);  // console, dashboard, register plot (expert.js)
   };
-  ws.onclose = () => {
+  ws.onclose = async () => {
     $("link").textContent = "studio stopped";
     $("link").className = "link bad";
-    say("The studio server stopped or restarted; reconnecting\u2026", "error");
+    let why = "The studio server stopped or restarted; reconnecting\u2026";
+    try {  // a restarted studio has a new token: its answer says where to go
+      const r = await fetch("/api/state");
+      if (r.status === 403) why = (await r.json()).error;
+    } catch (e) { /* stopped: keep trying */ }
+    say(why, "error");
     setTimeout(connect, 1000);
   };
   ws.onopen = () => { if ($("message").textContent.startsWith("The studio server")) say("", "ok"); };
 }
 
 (async function start() {
-  const r = await (await fetch("/api/registers")).json();
+  const reply = await fetch("/api/registers");
+  if (!reply.ok) { say((await reply.json()).error, "error"); return; }
+  const r = await reply.json();
   S.regs = r.registers;
   S.bauds = r.bauds;
   S.variants = r.variants;

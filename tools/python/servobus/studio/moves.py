@@ -1,0 +1,136 @@
+"""The studio's motion actions: STOP, move, speed mode, homing, trajectory. Each value
+is checked by values.py before anything is queued; each motion job is marked as one,
+so that a STOP cancels it while it waits in the queue."""
+
+import asyncio
+
+from .. import values as V
+from ..registers import REGISTERS
+from .api import Handler, ok
+from .jobs import Refused
+
+ACC_UNITS = "x10 deg/s^2"
+
+
+class Moves(Handler):
+    """POST /api/stop, /api/move, /api/speed, /api/home, /api/traj."""
+
+    def add_routes(self, app):
+        for path, fn in (("stop", self.stop), ("move", self.move), ("speed", self.speed),
+                         ("home", self.home), ("traj", self.traj)):
+            app.router.add_post("/api/" + path, fn)
+
+    def _top(self, factor):
+        """The largest position (or speed, factor 0x7FFF) in degrees at the selected
+        servo's resolution."""
+        return factor * self.st.resolution * 0.1
+
+    async def stop(self, request):
+        """STOP reads nothing of the request: it is never refused for its form. It is
+        refused only when the bus is gone (then nothing can reach the servos)."""
+        async def go(_):
+            sent_at = await asyncio.wrap_future(self.st.request_stop())
+            return ok(sent_at=round(sent_at - self.st.t0, 3))
+        return await self.handle(request, go, read_body=False)
+
+    async def move(self, request):
+        async def go(body):
+            V.fields(body, ("goal", "speed", "acc", "dec"), ("id",))
+            sid = self.target(body)
+            self.not_busy()
+            goal = self.units(body["goal"], "goal", 0, self._top(0xFFFF))
+            speed = self.units(body["speed"], "speed", 0, self._top(0x7FFF), "deg/s")
+            if speed < 1:
+                raise Refused("Speed %s deg/s is 0 position units/s: it would not move (0 "
+                              "stops). Give at least %g deg/s. Nothing was sent." % (
+                                  body["speed"], self._top(1)), 400)
+            acc = V.integer(body["acc"], "acceleration", 0, 255, ACC_UNITS)
+            dec = V.integer(body["dec"], "deceleration", 0, 255, ACC_UNITS)
+
+            def job(bus):
+                if REGISTERS["acceleration"].applies_to(bus.variant(sid)):
+                    # goal, speed, acceleration, deceleration (30-35) in one WRITE, so the
+                    # goal register (and the plot) shows the target
+                    bus.write(sid, {"goal_position": goal, "moving_speed": speed,
+                                    "acceleration": acc, "deceleration": dec})
+                else:  # the base: ramps are EEPROM registers, CUSTOM MOVE carries them
+                    bus.move_absolute(sid, goal, speed, acc, dec)
+            await self.st.call(job, "ID %d: move to %s deg at %s deg/s (acc %d, dec %d)" % (
+                sid, body["goal"], body["speed"], acc, dec), motion=True)
+            return ok()
+        return await self.handle(request, go)
+
+    async def speed(self, request):
+        async def go(body):
+            V.fields(body, ("speed",), ("id",))
+            sid = self.target(body)
+            self.not_busy()
+            top = self._top(0x7FFF)
+            v = self.units(body["speed"], "speed", -top, top, "deg/s")
+            if v:
+                await self.st.call(lambda bus: self._speed_mode(bus, sid))
+            await self.st.call(lambda bus: bus.set_speed(sid, v), "ID %d: speed mode at %s "
+                               "deg/s" % (sid, body["speed"]), motion=True)
+            return ok()
+        return await self.handle(request, go)
+
+    @staticmethod
+    def _speed_mode(bus, sid):
+        """Refused (409) if sid is in position mode, where a speed only sets the cruise
+        speed of the next move (the base is always in speed mode)."""
+        if not REGISTERS["acceleration"].applies_to(bus.variant(sid)):
+            return
+        lim = bus.read_many(sid, ["cw_angle_limit", "ccw_angle_limit"])
+        if lim["cw_angle_limit"] or lim["ccw_angle_limit"]:
+            raise Refused(
+                "ID %d is in position mode (angle limits %d and %d): a speed there is only "
+                "the cruise speed of the next move. For speed mode set cw_angle_limit and "
+                "ccw_angle_limit to 0 in the control table. Nothing was written." % (
+                    sid, lim["cw_angle_limit"], lim["ccw_angle_limit"]), 409)
+
+    async def home(self, request):
+        async def go(body):
+            V.fields(body, ("start",), ("id",))
+            start = V.flag(body["start"], "start")  # "no" is not false: refused
+            sid = self.target(body)
+            self.not_busy()
+            await self.st.call(lambda bus: bus.home(sid) if start else bus.stop_homing(sid),
+                               "ID %d: %s homing" % (sid, "start" if start else "stop"),
+                               motion=start)
+            return ok()
+        return await self.handle(request, go)
+
+    async def traj(self, request):
+        async def go(body):
+            V.fields(body, ("points",), ("id",))
+            sid = self.target(body)
+            self.not_busy()
+            points = self._points(body["points"])
+
+            def job(bus):
+                bus.trajectory_write(sid, points)
+                bus.trajectory_action(sid)
+            await self.st.call(job, "ID %d: trajectory of %d points, run" % (
+                sid, len(points)), motion=True)
+            return ok()
+        return await self.handle(request, go)
+
+    def _points(self, given):
+        """[(angle, speed)] in position units from [[deg, deg/s], ...] (1 to 63)."""
+        if not isinstance(given, list) or not given:
+            raise Refused("The trajectory has no points: give [[angle, speed], ...]. "
+                          "Nothing was sent.", 400)
+        if len(given) > 63:
+            raise Refused("%d points do not fit in one TRAJECTORY WRITE (63 at most). "
+                          "Nothing was sent." % len(given), 400)
+        points = []
+        for n, p in enumerate(given, 1):
+            if not isinstance(p, list) or len(p) != 2:
+                raise Refused("Point %d is not [angle, speed]. Nothing was sent." % n, 400)
+            angle = self.units(p[0], "point %d: angle" % n, 0, self._top(0xFFFF))
+            speed = self.units(p[1], "point %d: speed" % n, 0, self._top(0xFFFF), "deg/s")
+            if speed < 1:
+                raise Refused("Point %d: speed %s deg/s is 0 position units/s (a point "
+                              "needs a speed). Nothing was sent." % (n, p[1]), 400)
+            points.append((angle, speed))
+        return points

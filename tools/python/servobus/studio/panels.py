@@ -1,0 +1,189 @@
+"""The expert panels' actions (issue 29): the dashboard's polling and its group move,
+the plot of any register, the trajectory editor's planned profile, and configuration
+files. Every value goes through values.py (and the SDK's checks) before anything is
+queued; a restore asks before a setting that locks a servo out, as a form does."""
+
+from .. import config as C
+from .. import planner
+from .. import protocol as P
+from .. import values as V
+from ..registers import REGISTERS, register, variant_by_model
+from .api import Handler, ok
+from .jobs import Refused
+from .words import sentence
+
+MAX_TRACES = 12
+
+
+class Panels(Handler):
+    """POST /api/dashboard, /api/scope, /api/group, /api/plan, /api/config/{save,
+    restore,diff}."""
+
+    def add_routes(self, app):
+        for path, fn in (("dashboard", self.dashboard), ("scope", self.scope),
+                         ("group", self.group), ("plan", self.plan),
+                         ("config/save", self.config_save),
+                         ("config/restore", self.config_restore),
+                         ("config/diff", self.config_diff)):
+            app.router.add_post("/api/" + path, fn)
+
+    def _entry(self, sid):
+        entry = next((s for s in self.st.state["servos"] if s["id"] == sid), None)
+        if entry is None:
+            raise Refused("ID %d is not in the last scan: scan first. Nothing was sent." %
+                          sid, 409)
+        return entry
+
+    async def dashboard(self, request):
+        async def go(body):
+            V.fields(body, ("on",))
+            self.st.live.dash_on = V.flag(body["on"], "on")
+            self.st.wake()
+            return ok(on=self.st.live.dash_on)
+        return await self.handle(request, go)
+
+    async def scope(self, request):
+        async def go(body):
+            V.fields(body, ("picks",))
+            if not isinstance(body["picks"], list) or len(body["picks"]) > MAX_TRACES:
+                raise Refused("'picks' must be a list of at most %d {id, register}. "
+                              "Nothing was sent." % MAX_TRACES, 400)
+            picks = {}
+            for p in body["picks"]:
+                if not isinstance(p, dict):
+                    raise Refused("Each pick is {\"id\": N, \"register\": name}. Nothing "
+                                  "was sent.", 400)
+                V.fields(p, ("id", "register"))
+                sid = V.servo_id(p["id"], "ID")
+                r = register(p["register"])
+                if not r.readable:
+                    raise Refused("%s cannot be read (write-only). Nothing was sent." %
+                                  r.name, 400)
+                variant = variant_by_model(self._entry(sid)["model"])
+                if not r.applies_to(variant):
+                    raise Refused("%s does not exist on ID %d (the %s). Nothing was sent." % (
+                        r.name, sid, variant.name), 400)
+                picks.setdefault(sid, []).append(r.name)
+            reads = self.st.live.set_picks(picks, self.st.state["baud"])
+            self.st.wake()
+            return ok(reads=[[sid, a, n] for sid, a, n, _ in reads])
+        return await self.handle(request, go)
+
+    async def group(self, request):
+        """Several servos to one goal each, together: REG WRITE to each (answered, so a
+        refusal is seen before anything moves) then one broadcast ACTION, or one SYNC
+        WRITE (how: "sync"). STOP stops them all (the broadcast of every STOP)."""
+        async def go(body):
+            V.fields(body, ("goals", "speed"), ("how",))
+            how = body.get("how", "action")
+            if how not in ("action", "sync"):
+                raise Refused("'how' is \"action\" (REG WRITE, then one ACTION) or \"sync\" "
+                              "(one SYNC WRITE). Nothing was sent.", 400)
+            if not isinstance(body["goals"], dict) or not 2 <= len(body["goals"]) <= 50:
+                raise Refused("Pick at least two servos (goals: {ID: degrees}). Nothing was "
+                              "sent.", 400)
+            self.not_busy()
+            values = {}
+            for key, deg in body["goals"].items():
+                sid = V.servo_id(key, "ID")
+                values[sid] = self._goal(sid, deg, body["speed"])
+            job = _group_job(values, how)
+            await self.st.call(job, "IDs %s: move together (%s)" % (
+                ", ".join(map(str, sorted(values))), "REG WRITE, broadcast ACTION"
+                if how == "action" else "SYNC WRITE"), motion=True)
+            return ok(ids=sorted(values))
+        return await self.handle(request, go)
+
+    def _goal(self, sid, deg, speed):
+        entry = self._entry(sid)
+        variant = variant_by_model(entry["model"])
+        if variant is None or not REGISTERS["acceleration"].applies_to(variant):
+            raise Refused("ID %d is the %s: it runs in speed mode, so it has no goal to go "
+                          "to. Nothing was sent." % (sid, entry["variant"]), 400)
+        unit = self.st.resolutions.get(sid, 10) * 0.1
+        top = variant.max_angle_ddeg / 10
+        g = V.number(deg, "ID %d: goal" % sid, 0, top, "deg")
+        s = V.number(speed, "speed", unit, 0x7FFF * unit, "deg/s")
+        return {"goal_position": int(round(g / unit)),
+                "moving_speed": max(1, int(round(s / unit)))}
+
+    async def plan(self, request):
+        """The planned reference of a trajectory from the servo's present position."""
+        async def go(body):
+            V.fields(body, ("points",), ("id",))
+            sid = self.target(body)
+            from .moves import Moves
+            points = Moves(self.st)._points(body["points"])  # as the Motion panel's
+
+            def job(bus):
+                variant = bus.variant(sid)
+                ramps = ("acceleration", "deceleration") if REGISTERS[
+                    "acceleration"].applies_to(variant) else ("base_acceleration",
+                                                              "base_deceleration")
+                v = bus.read_many(sid, [variant.position_register.name, "angle_resolution",
+                                        *ramps])
+                return v, ramps
+            v, ramps = await self.st.call(job)
+            res = v["angle_resolution"] or 10
+            start = v[[k for k in v if k in ("turned_angle", "present_position")][0]]
+            prof = planner.trajectory(start, points, res, v[ramps[0]], v[ramps[1]])
+            deg = res * 0.1
+            return ok(profile=[[t, round(p * deg, 2)] for t, p in prof],
+                      duration=prof[-1][0])
+        return await self.handle(request, go)
+
+    async def config_save(self, request):
+        async def go(body):
+            V.fields(body, (), ("id",))
+            sid = self.target(body)
+            self.not_busy()
+            return ok(config=await self.st.call(lambda bus: C.save(bus, sid)))
+        return await self.handle(request, go)
+
+    async def config_restore(self, request):
+        async def go(body):
+            V.fields(body, ("config",), ("id", "with_id", "with_baud", "confirm"))
+            sid = self.target(body)
+            flags = [V.flag(body.get(k, False), k) for k in ("with_id", "with_baud",
+                                                              "confirm")]
+            self.not_busy()
+            changes, reasons, runs = await self.st.call(
+                lambda bus: C.restore_plan(bus, sid, body["config"], flags[0], flags[1]))
+            if "id" in changes:
+                await self.st.call(lambda bus: bus.refuse_taken(changes["id"]))
+            if reasons and not flags[2]:
+                raise Refused("%s Confirm to restore it anyway. Nothing was written." %
+                              sentence(reasons[0]), 409, confirm=sentence(reasons[0]))
+            if changes:
+                await self.st.call(lambda bus: C.restore(bus, sid, changes),
+                                   "ID %d: restore %d settings (%s)" % (
+                                       sid, len(changes), ", ".join(changes)))
+            self.st.table_due = 0.0
+            return ok(changes=changes, writes=len(runs))
+        return await self.handle(request, go)
+
+    async def config_diff(self, request):
+        async def go(body):
+            V.fields(body, ("a", "b"))
+            docs = []
+            for side in ("a", "b"):
+                given = body[side]
+                if isinstance(given, dict):
+                    C.check(given)
+                    docs.append(given)
+                else:
+                    sid = V.servo_id(given, "ID")
+                    docs.append(await self.st.call(lambda bus, s=sid: C.save(bus, s)))
+            return ok(rows=C.diff(docs[0], docs[1]), a=docs[0], b=docs[1])
+        return await self.handle(request, go)
+
+
+def _group_job(values, how):
+    def job(bus):
+        if how == "sync":
+            bus.sync_write("goal_position", values)
+            return
+        for sid, v in sorted(values.items()):
+            bus.reg_write(sid, v)  # goal and speed (30-33), held until the ACTION
+        bus.action(P.BROADCAST)  # every one of them starts at this packet
+    return job
