@@ -109,6 +109,8 @@ demo-bytes: host
 
 docs: host
 	build/host/tools/regdoc > docs/registers.md
+	build/host/tools/regdoc --json > tools/python/servobus/registers.json
+	build/host/tools/regdoc --protocol-json > tools/python/servobus/protocol.json
 
 clean:
 	rm -rf build

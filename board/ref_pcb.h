@@ -1,5 +1,5 @@
 /* board/ref_pcb.h - what every reference board shares: one PCB design, an STM32F103C8
- * (64 KiB flash, 20 KiB RAM; a GD32F103C8 fits too), fitted per variant. Included by
+ * (64 KiB flash, 20 KiB RAM; the CB's 128 KiB works too), fitted per variant. Included by
  * each board/<name>/board_pins.h after it has chosen its fittings: BOARD_POSITION_POT
  * (potentiometer or encoder), BOARD_PHOTO (homing switches or none) and
  * BOARD_CURRENT_MA_FS (the shunt). Model number, range, limits and bus defaults are in
@@ -12,6 +12,16 @@
 #endif
 
 #define BOARD_HSE_HZ 8000000u /* crystal; the clock code falls back to HSI without it */
+
+/* Required of the PCB, because the firmware cannot do it: from reset until the
+ * bootloader's first instructions drive them (boot_main.c), and all the while the ROM
+ * bootloader runs (BOOT0 high), every pin is a floating input. So:
+ *   - PA12 (RS485 DE and /RE): 10 kOhm to GND. A floating DE can switch the driver on
+ *     and hold the shared bus for every other servo on it;
+ *   - PB0 (the bridge's nSLEEP): 10 kOhm to GND, and PA6, PA7 (IN1, IN2): 10 kOhm to GND,
+ *     so the bridge stays asleep and its inputs low: the motor never moves by itself;
+ *   - BOOT0: 10 kOhm to GND.
+ * From the bootloader's first call on, gpio_init() drives DE and nSLEEP low. */
 
 /* Bus: USART1 through a half-duplex RS485 transceiver (DE and /RE tied together). */
 #define BOARD_PIN_UART_TX PIN('A', 9)
@@ -34,8 +44,13 @@
 #define BOARD_TEMP_MV_AT_0C 500u
 #define BOARD_TEMP_UV_PER_DC 1000u  /* 10 mV per degree = 1000 uV per 0.1 C */
 
-/* Current: shunt amplifier (x 20) on BOARD_ADC_CURRENT; the shunt fitted sets
- * BOARD_CURRENT_MA_FS. */
+/* Current: low-side shunt and amplifier (x 20) on BOARD_ADC_CURRENT; the shunt fitted
+ * sets BOARD_CURRENT_MA_FS. The shunt carries current only during the PWM's on-time;
+ * the port samples it for 13.5 ADC cycles (1.1 us at 72 MHz) at the middle of the
+ * on-time (motor.c), so the amplifier must drive PA2 directly: output impedance with
+ * any series resistor below 10 kOhm, and no filter slower than 0.5 us (an RC of e.g.
+ * 100 Ohm and 2.2 nF at most): a slower one averages the on-time with the off-time.
+ * The other inputs are sampled for 41.5 cycles: sources below 30 kOhm. */
 
 #if BOARD_POSITION_POT
 /* Position: potentiometer on the output shaft, ADC1 channel 0 (PA0); its electrical

@@ -1,12 +1,16 @@
-# Fail if tools/python/servobus/registers.json (the host SDK's copy of the register
-# table) is not exactly what `regdoc --json` generates from src/regs.c.
-execute_process(COMMAND ${REGDOC} --json OUTPUT_VARIABLE generated RESULT_VARIABLE rc)
+# Fail if a JSON copy the host SDK keeps (tools/python/servobus/registers.json from
+# src/regs.c, protocol.json from src/dispatch.c and include/proto.h) is not exactly what
+# `regdoc FLAG` generates. FLAG defaults to --json.
+if(NOT FLAG)
+    set(FLAG --json)
+endif()
+execute_process(COMMAND ${REGDOC} ${FLAG} OUTPUT_VARIABLE generated RESULT_VARIABLE rc)
 if(NOT rc EQUAL 0)
-    message(FATAL_ERROR "regdoc --json failed")
+    message(FATAL_ERROR "regdoc ${FLAG} failed")
 endif()
 file(READ ${JSON} checked_in)
 if(NOT generated STREQUAL checked_in)
-    message(FATAL_ERROR "${JSON} is out of date with src/regs.c: run "
-                        "`build/host/tools/regdoc --json > tools/python/servobus/registers.json`")
+    message(FATAL_ERROR "${JSON} is out of date with the firmware's tables: run "
+                        "`make docs` (build/host/tools/regdoc ${FLAG} > ${JSON})")
 endif()
-message(STATUS "registers.json matches the table")
+message(STATUS "${JSON} matches the firmware's tables")

@@ -28,12 +28,18 @@ set(SERVO_APP_MAX_BYTES 26620) # image.h IMAGE_MAX_BYTES: the 26 KiB slot less t
 # (make firmware's table): jump threading and the dominator optimisations duplicate
 # blocks to save branches, loop-invariant motion spills registers it hoisted, tree-level
 # tail merging leaves less for the later cross-jumping; in the bootloader also VRP and
-# phi-to-conditional rewriting. Only optimisation choices: the
+# phi-to-conditional rewriting. Then (issue 25, each measured alone and together): the
+# second scheduling pass and caller-saves, which the in-order Cortex-M3 gains little from
+# and which cost spills; block reordering, loop-invariant motion of tree level,
+# if-conversion, partial inlining and forward propagation, which duplicate code
+# (about 330 B off the application, 56 B off the bootloader). Only optimisation choices: the
 # code means the same, and the stack and ISR-in-RAM checks below still hold it.
 set(SERVO_SIZE_OPTIONS_APP -fno-thread-jumps -fno-tree-dominator-opts -fno-move-loop-invariants
-    -fno-tree-tail-merge)
+    -fno-tree-tail-merge -fno-schedule-insns2 -fno-caller-saves -fno-reorder-blocks
+    -fno-tree-loop-im -fno-if-conversion -fno-partial-inlining -fno-forward-propagate)
 set(SERVO_SIZE_OPTIONS_BOOT -fno-tree-dominator-opts -fno-move-loop-invariants -fno-tree-vrp
-    -fno-ssa-phiopt -fno-tree-tail-merge)
+    -fno-ssa-phiopt -fno-tree-tail-merge -fno-schedule-insns2 -fno-caller-saves
+    -fno-tree-loop-im -fno-if-conversion -fno-forward-propagate -fno-tree-slsr)
 
 # Link-time optimisation: the core's modules talk through narrow calls, which cost code
 # when every call crosses a file; at the link GCC inlines and specialises across them

@@ -39,4 +39,9 @@ void planner_step_speed(struct plan *p, int32_t vel_target, const struct plan_li
  * dec per tick, in the discrete sense the planner uses. */
 int32_t planner_brake_speed(int64_t dist, int32_t dec);
 
+/* The distance the reference covers from speed v (>= 0) braking at dec per tick, in the
+ * same discrete sense (this tick's step included): planner_brake_speed()'s inverse, so a
+ * target this far ahead is reached by braking at once. */
+int64_t planner_stop_distance(int32_t v, int32_t dec);
+
 #endif

@@ -6,6 +6,8 @@
 #include <stdbool.h>
 #include <stdint.h>
 
+#include "regs.h"
+
 #define PROTO_HEADER0 0xD5u
 #define PROTO_HEADER1 0x5Du
 #define PROTO_ID_BROADCAST 0xFEu
@@ -34,9 +36,9 @@
 #define ERR_INSTRUCTION 0x20u
 #define ERR_STALL 0x40u
 
-/* Longest status packet: header, ID, LEN, ERR, 49 data bytes (a READ of the whole table
- * after address 0 is 50), checksum. */
-#define PROTO_STATUS_MAX (5u + 50u + 1u)
+/* Longest status packet: header, ID, LEN, ERR, a READ of the whole table, checksum. */
+#define PROTO_STATUS_MAX (6u + REGS_SIZE)
+_Static_assert(REGS_SIZE + 2u <= 0xFFu, "an answer's LEN must count a READ of the whole table");
 
 /* The §10 update frames, shared by the receiver (the data block is the one frame longer
  * than LEN can say) and the update session: CUSTOM with sub-command 0xFC (enter) or 0xFE

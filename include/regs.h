@@ -9,6 +9,8 @@
 #include "board.h"
 
 #define REGS_SIZE 50u
+/* Every 16-bit register at an even address is one element of regs.half[]. */
+_Static_assert(REGS_SIZE % 2u == 0u, "the table is read and written in half-words");
 #define REGS_FACTORY_ID 1u /* register 3's factory value (PROTOCOL.md §5) */
 
 /* 1: compile register names and descriptions in (host tools and docs); the MCU image
@@ -125,11 +127,32 @@ struct regs {
     };
     const struct board *board;
     uint8_t ee_changed; /* a writable EEPROM register changed value: the store has work */
+    uint8_t ee_lazy;    /* one changed through regs_set_lazy(): the store may wait */
 };
 
 #if __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
 #error "the control table is kept in wire order: little-endian targets only"
 #endif
+
+/* A host write of registers as the modules that act on it see it (write.h): the n bytes
+ * written at addr, which addresses they cover, and what register 13 was before them (a
+ * change of the unit rescales: §5). */
+struct reg_write {
+    uint8_t addr;
+    uint8_t n;
+    uint8_t old_resolution;
+    const uint8_t *data;
+    uint64_t touched; /* bit a: the write covers address a (regs_mask()) */
+};
+
+/* The addresses [addr, addr + n) as a mask, bit a for address a. */
+uint64_t regs_mask(uint8_t addr, uint8_t n);
+
+/* Does the write cover register reg (its first byte)? */
+static inline bool reg_write_touches(const struct reg_write *w, uint8_t reg)
+{
+    return ((w->touched >> reg) & 1u) != 0u;
+}
 
 /* True if a register starts at addr and exists on this board's variant. */
 bool regs_applicable(const struct board *b, uint8_t addr);
@@ -155,9 +178,21 @@ uint16_t regs_get(const struct regs *r, uint8_t addr);
  * the store must keep goes through here. */
 void regs_set(struct regs *r, uint8_t addr, uint16_t value);
 
+/* Put a byte register's value in place without the table's rules: the bootloader's update
+ * mode, which links no table, holds its three settings this way (loader.c). */
+static inline void regs_put8(struct regs *r, uint8_t addr, uint8_t value)
+{
+    r->mem[addr] = value;
+}
+
+/* The same for a change that may reach the flash late (store_defer(): CUSTOM MOVE's
+ * ramps on the base). */
+void regs_set_lazy(struct regs *r, uint8_t addr, uint16_t value);
+
 /* Main loop: did a writable EEPROM register change value since the last call? Clears
- * the mark. */
+ * the mark. regs_take_ee_lazy() the same for regs_set_lazy(). */
 bool regs_take_ee_changed(struct regs *r);
+bool regs_take_ee_lazy(struct regs *r);
 
 /* Copy count bytes from addr for a READ: reserved, write-only and not-applicable
  * addresses read as 0. The caller has checked addr + count <= REGS_SIZE. */

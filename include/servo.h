@@ -39,7 +39,7 @@ struct servo {
     uint8_t fw_version; /* register 2: the running image's version */
     uint8_t in_loader;  /* running update mode (loader.h), not the application */
     uint8_t restart;    /* restart once the answer in progress has left the wire */
-    uint8_t answered;   /* an answer has left the wire since power-up */
+    uint8_t confirm_due; /* an answer has left the wire, or BOOT_CONFIRM_US have passed */
     uint8_t confirmed;  /* boot_confirm() has nothing left to do (boot.h) */
     uint8_t hung;       /* host model: the image hangs at start (servo_power_on) */
     uint32_t start_us;  /* power-up of the application (or of the hang) */

@@ -39,9 +39,11 @@ struct store {
     uint8_t pending;    /* the table differs from saved[] and waits for a commit */
     uint8_t tokens;     /* commits allowed now */
     uint32_t refill_us; /* one token per refill_us; 0 = no rate limit */
-    uint32_t token_at;  /* when the last token was added */
+    uint32_t token_at;  /* when the last token was added (or the bucket was full) */
     uint32_t faults;    /* flash operations that failed */
-    uint32_t retry_at;  /* a failed pre-erase is not retried before this time */
+    uint8_t retrying;   /* a pre-erase failed at failed_at: the next waits a second */
+    uint8_t lazy;       /* a change that may wait for a full bucket and a resting motor */
+    uint32_t failed_at;
 };
 
 /* What the flash holds, read without the register table (the bootloader's update mode
@@ -68,10 +70,21 @@ void store_load(struct store *st, struct hal *hal, struct regs *r, uint32_t now_
  * pending and store_poll() commits it. */
 void store_sync(struct store *st, const struct regs *r, uint32_t now_us);
 
-/* Main loop: commit a pending change when allowed; when the motor is idle, erase the
- * next page in rotation ahead of time so a compaction never has to (an erase stalls the
- * CPU for tens of milliseconds). */
+/* Main loop, every pass: refill the commit budget (so a refill after any idle saturates
+ * rather than wrapping with the 32-bit clock); commit a pending change when allowed; when
+ * the motor is idle, erase the next page in rotation ahead of time so a compaction never
+ * has to (an erase stalls the CPU for tens of milliseconds), and commit a lazy change
+ * (store_defer) if the budget is full. */
 void store_poll(struct store *st, const struct regs *r, uint32_t now_us, bool idle);
+
+/* A change of the table that may reach the flash late (CUSTOM MOVE's ramps on the base,
+ * docs/persistence.md): it is committed with the next commit of anything else, or alone
+ * by store_poll() once the motor rests and the budget is full, so ordinary driving never
+ * spends the budget a host's settings rely on. */
+void store_defer(struct store *st);
+
+/* Commits allowed back to back now (the budget's bucket), for tests and host tools. */
+uint8_t store_tokens(const struct store *st);
 
 /* Commit whatever differs from the flash now, past the rate limit: the servo is about to
  * restart (a firmware update, once per update), and a waiting change must not be lost. */

@@ -35,4 +35,8 @@ static inline bool traj_empty(const struct traj *t)
 /* Forget the stored points. */
 void traj_clear(struct traj *t);
 
+/* Clamp the stored points to the angle limits in force (new limits, and the start of a
+ * run: a trajectory stored before the limits narrowed stays within the new ones). */
+void traj_clamp(struct traj *t, const struct regs *r);
+
 #endif

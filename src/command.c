@@ -1,13 +1,19 @@
-/* command.c - what the host's commands mean to the motor side (PROTOCOL.md §4.6-§4.8,
- * §5, §6): register writes that move, stop, brake, sleep, home or mirror the motor, START/
- * END, TRAJECTORY ACTION, CUSTOM MOVE and RESET, each turned into a mode of motion.c.
- * Rule 3 of §0 lives here: a speed of 0 is never refused and drops the torque at once.
- * Main loop only. */
-#include "motion.h"
+/* command.c - what the host's commands mean to the motor (command.h): register writes
+ * that move, stop, brake, sleep, home, rescale or mirror the motor or change its limits,
+ * START/END, TRAJECTORY ACTION, CUSTOM MOVE and RESET, each turned into a mode of
+ * motion.c through motion_mode.h. It keeps no state of its own and never touches the
+ * motion layer's. Rule 3 of §0 lives here: a speed of 0 is never refused and drops the
+ * torque at once. Main loop only. */
+#include "command.h"
 #include "motion_mode.h"
 #include "proto.h"
 #include "safety.h"
 #include "servo.h"
+
+bool command_may_move(const struct servo *s)
+{
+    return motion_may_start(s) && motion_referenced_for(s, false);
+}
 
 static void goal_written(struct servo *s)
 {
@@ -21,125 +27,149 @@ static void goal_written(struct servo *s)
 
 static void speed_written(struct servo *s)
 {
-    struct motion *m = &s->motion;
     uint16_t speed = regs_get(&s->regs, REG_MOVING_SPEED);
-    if (proto_speed_is_stop(speed)) {
+    uint8_t mode = motion_mode(s);
+    if (proto_speed_is_stop(speed))
         motion_coast(s);
-    } else if (regs_speed_mode(&s->regs) && m->mode != MOTION_MOVE) {
+    else if (regs_speed_mode(&s->regs) && mode != MOTION_MOVE)
         motion_start_speed(s, speed);
-    } else if (m->mode == MOTION_MOVE || m->mode == MOTION_TRAJ) {
+    else if (mode == MOTION_MOVE || mode == MOTION_TRAJ)
         motion_set_limits(s, speed); /* a new cruise speed, re-planned from here */
-    }
 }
 
-static bool touches(uint8_t addr, uint8_t n, uint8_t reg)
+uint8_t command_write_check(const struct servo *s, const struct reg_write *w)
 {
-    return reg >= addr && reg < addr + n;
-}
-
-bool motion_write_allowed(const struct servo *s, uint8_t addr, const uint8_t *data, uint8_t n)
-{
-    const struct safety *sf = &s->safety;
-    if (touches(addr, n, REG_CLEAR_UNLOAD) && !safety_may_clear(sf))
-        return false; /* the condition is still there */
-    bool unloaded = safety_unloaded(sf) && !touches(addr, n, REG_CLEAR_UNLOAD);
-    if (touches(addr, n, REG_HOMING) && data[REG_HOMING - addr] == 1u && unloaded)
-        return false;
-    if (touches(addr, n, REG_GOAL_POSITION) &&
-        (unloaded || !motion_referenced_for(s, false)))
-        return false;
-    if ((touches(addr, n, REG_CW_LIMIT) || touches(addr, n, REG_CCW_LIMIT)) &&
-        s->motion.mode == MOTION_HOME)
-        return false; /* homing measures the limits: they are its own until it ends */
-    if (touches(addr, n, REG_MOVING_SPEED)) {
-        uint8_t i = (uint8_t)(REG_MOVING_SPEED - addr);
-        bool stop = proto_speed_is_stop(proto_get16(&data[i])); /* rule 3: never refused */
-        /* In position mode the speed only sets the cruise speed: it starts nothing. */
+    bool unloaded = safety_unloaded(&s->safety) && !reg_write_touches(w, REG_CLEAR_UNLOAD);
+    if (reg_write_touches(w, REG_HOMING) && w->data[REG_HOMING - w->addr] == 1u && unloaded)
+        return ERR_INSTRUCTION;
+    if (reg_write_touches(w, REG_GOAL_POSITION) && (unloaded || !motion_referenced_for(s, false)))
+        return ERR_INSTRUCTION;
+    if ((reg_write_touches(w, REG_CW_LIMIT) || reg_write_touches(w, REG_CCW_LIMIT)) &&
+        motion_mode(s) == MOTION_HOME)
+        return ERR_INSTRUCTION; /* homing measures the limits: they are its own until it ends */
+    if (reg_write_touches(w, REG_MOVING_SPEED)) {
+        bool stop = proto_speed_is_stop(proto_get16(&w->data[REG_MOVING_SPEED - w->addr]));
+        /* Rule 3: a stop is never refused. In position mode the speed only sets the cruise
+         * speed: it starts nothing. */
         if (!stop && regs_speed_mode(&s->regs) && (unloaded || !motion_referenced_for(s, true)))
-            return false;
+            return ERR_INSTRUCTION;
     }
-    return true;
+    return 0;
+}
+
+/* Register 13 changed (§5): limits and goal keep meaning the same angles (rounded), the
+ * trajectory is dropped, and the motor stops and holds. */
+static void resolution_written(struct servo *s, uint8_t old_res)
+{
+    struct regs *r = &s->regs;
+    uint8_t new_res = r->mem[REG_RESOLUTION];
+    uint16_t was = regs_present_position(r); /* still in the old unit */
+    bool inside = !regs_speed_mode(r) && was >= regs_get(r, REG_CW_LIMIT) &&
+                  was <= regs_get(r, REG_CCW_LIMIT);
+    static const uint8_t rescaled[] = {REG_CW_LIMIT, REG_CCW_LIMIT, REG_GOAL_POSITION};
+    for (uint8_t i = 0; i < sizeof rescaled; i++) {
+        uint8_t a = rescaled[i];
+        uint32_t v = ((uint32_t)regs_get(r, a) * old_res + new_res / 2u) / new_res;
+        regs_set(r, a, (uint16_t)(v > regs_table[a].max ? regs_table[a].max : v));
+    }
+    traj_clear(&s->traj);
+    /* A shaft within its limits stays within them: a limit rounds to the nearest new
+     * unit, and the position, which nothing moves, may round the other way (homing holds
+     * on the switch edge, up to half a unit past the limit it measured). The limit then
+     * widens by that unit rather than the servo moving on its own. */
+    int32_t lo, hi;
+    motion_rest_span(s, &lo, &hi);
+    if (inside && lo >= 0 && hi <= 0x7FFF) {
+        if (hi > (int32_t)regs_get(r, REG_CCW_LIMIT))
+            regs_set(r, REG_CCW_LIMIT, (uint16_t)hi);
+        if (lo < (int32_t)regs_get(r, REG_CW_LIMIT))
+            regs_set(r, REG_CW_LIMIT, (uint16_t)lo);
+    }
+    /* A motion running is cancelled where the shaft is (the goal then reads what it
+     * holds); at rest, the goal keeps meaning the same angle, as the limits do. */
+    uint8_t mode = motion_mode(s);
+    if (mode != MOTION_OFF && mode != MOTION_HOLD)
+        motion_hold_here(s);
+    motion_limits_changed(s);
 }
 
 /* A function of its own under -flto too: hal/stm32f1/qemu_cost.py counts a re-plan
  * from its entry. */
-__attribute__((noinline)) void motion_on_write(struct servo *s, uint8_t addr, uint8_t n)
+__attribute__((noinline)) void command_written(struct servo *s, const struct reg_write *w)
 {
-    struct motion *m = &s->motion;
-    if (touches(addr, n, REG_CLEAR_UNLOAD))
-        safety_clear(&s->safety); /* nothing moves until the next motion command */
-    if (touches(addr, n, REG_HOMING_ZERO_SIDE) &&
-        m->ctl.sign != (s->regs.mem[REG_HOMING_ZERO_SIDE] == 2u ? -1 : 1)) {
-        motion_coast(s); /* the motor is mirrored from now on: the reference is gone */
-        control_mirror(&m->ctl);
-        m->zero = -m->zero;
-        m->referenced = 0;
-    }
-    if (touches(addr, n, REG_HOMING)) {
-        if (s->regs.mem[REG_HOMING] & 0x0Fu)
+    const struct regs *r = &s->regs;
+    if (reg_write_touches(w, REG_HOMING_ZERO_SIDE))
+        motion_mirror(s, r->mem[REG_HOMING_ZERO_SIDE] == 2u ? -1 : 1);
+    if (reg_write_touches(w, REG_HOMING)) {
+        if (r->mem[REG_HOMING] & 0x0Fu)
             motion_start_homing(s);
-        else if (m->mode == MOTION_HOME)
-            motion_hold_here(s); /* writing 0 aborts */
+        else
+            motion_homing_abort(s); /* writing 0 aborts */
     }
-    if (touches(addr, n, REG_SLEEP) && s->regs.mem[REG_SLEEP])
+    if (reg_write_touches(w, REG_SLEEP) && r->mem[REG_SLEEP])
         motion_coast(s);
-    if (touches(addr, n, REG_BRAKE) && s->regs.mem[REG_BRAKE])
+    if (reg_write_touches(w, REG_BRAKE) && r->mem[REG_BRAKE])
         motion_brake_hold(s);
-    if (touches(addr, n, REG_RESOLUTION)) {
-        motion_hold_here(s); /* §5: a resolution change stops any motion */
+    if (reg_write_touches(w, REG_RESOLUTION) &&
+        r->mem[REG_RESOLUTION] != w->old_resolution) {
+        resolution_written(s, w->old_resolution); /* §5: changing 13 stops motion */
         return;
     }
+    if (reg_write_touches(w, REG_CW_LIMIT) || reg_write_touches(w, REG_CCW_LIMIT))
+        motion_limits_changed(s);
     uint8_t a = regs_ramp_addr(s->board);
-    /* New ramps, re-planned at the cruise speed in force (a trajectory point's, a CUSTOM
-     * MOVE's: not register 32's); homing keeps its own. */
-    if ((touches(addr, n, a) || touches(addr, n, (uint8_t)(a + 1u))) && m->mode != MOTION_OFF &&
-        m->mode != MOTION_HOME)
-        motion_set_limits(s, m->cruise);
-    if (touches(addr, n, REG_GOAL_POSITION))
+    if (reg_write_touches(w, a) || reg_write_touches(w, (uint8_t)(a + 1u)))
+        motion_new_ramps(s);
+    if (reg_write_touches(w, REG_GOAL_POSITION))
         goal_written(s);
-    else if (touches(addr, n, REG_MOVING_SPEED))
+    else if (reg_write_touches(w, REG_MOVING_SPEED))
         speed_written(s);
 }
 
-uint8_t motion_start_end(struct servo *s, uint8_t what)
+uint8_t command_start_end(struct servo *s, uint8_t what)
 {
-    struct motion *m = &s->motion;
-    if (m->mode == MOTION_HOME)
+    struct regs *r = &s->regs;
+    if (motion_mode(s) == MOTION_HOME)
         return ERR_INSTRUCTION; /* homing sets the zero and the limits itself */
     if (what == 1u) {
-        m->zero = m->ctl.counts; /* the present position becomes 0 */
-        m->plan.pos = m->ctl.counts * PLANNER_ONE;
-        m->target = m->plan.pos;
-        regs_set(&s->regs, REG_CW_LIMIT, 0);
+        motion_zero_here(s); /* the present position becomes 0 */
+        regs_set(r, REG_CW_LIMIT, 0);
     } else {
-        int32_t here = motion_present_units(s);
-        if (here < (int32_t)regs_get(&s->regs, REG_CW_LIMIT) || here > 0x7FFF)
+        int32_t lo, here; /* the highest a held shaft reads where it settles */
+        motion_rest_span(s, &lo, &here);
+        if (here < (int32_t)regs_get(r, REG_CW_LIMIT) || here > 0x7FFF)
             return ERR_INSTRUCTION;
-        regs_set(&s->regs, REG_CCW_LIMIT, (uint16_t)here);
+        if (here == 0 && regs_get(r, REG_CW_LIMIT) == 0u)
+            return ERR_INSTRUCTION; /* both limits 0 would make the joint a wheel (§6.2) */
+        regs_set(r, REG_CCW_LIMIT, (uint16_t)here);
     }
+    motion_limits_changed(s);
     return 0; /* both are stored (§4.6): the main loop syncs the store after the frame */
 }
 
-uint8_t motion_traj_action(struct servo *s)
+void command_traj_action(struct servo *s)
 {
-    if (!motion_may_start(s) || !motion_referenced_for(s, false))
-        return ERR_INSTRUCTION;
     motion_start_traj(s);
-    return 0;
 }
 
-uint8_t motion_custom_allowed(const struct servo *s, const struct custom_move *cm)
+void command_traj_written(struct servo *s)
 {
-    if (proto_speed_is_stop(cm->speed))
-        return 0; /* rule 3: a speed of 0 always stops */
-    return motion_may_start(s) && motion_referenced_for(s, false) ? 0u : ERR_INSTRUCTION;
+    if (motion_mode(s) == MOTION_TRAJ)
+        motion_stop_soft(s);
 }
 
-void motion_custom_move(struct servo *s, const struct custom_move *cm)
+void command_custom_move(struct servo *s, const struct custom_move *cm)
 {
     if (proto_speed_is_stop(cm->speed)) {
-        motion_coast(s);
+        motion_coast(s); /* rule 3: a speed of 0 always stops */
         return;
+    }
+    if (cm->has_ramps) {
+        /* §4.8: written into the ramp registers; on the base they are EEPROM, kept lazily
+         * so that driving never spends the commit budget (docs/persistence.md). */
+        uint8_t a = regs_ramp_addr(s->board);
+        regs_set_lazy(&s->regs, a, cm->acc);
+        regs_set_lazy(&s->regs, (uint8_t)(a + 1u), cm->dec);
     }
     int32_t target;
     if (cm->absolute) {
@@ -155,20 +185,13 @@ void motion_custom_move(struct servo *s, const struct custom_move *cm)
     motion_start_move(s, target, (uint16_t)(cm->speed & PROTO_SPEED_MAGNITUDE));
 }
 
-void motion_torque_off(struct servo *s)
+void command_torque_off(struct servo *s)
 {
     motion_coast(s);
 }
 
-void motion_reset(struct servo *s)
+void command_reset(struct servo *s)
 {
     motion_coast(s);
-    s->motion.zero = s->motion.ctl.counts;
-    s->motion.referenced = 0; /* §4.5: RESET clears the homing reference */
-}
-
-
-int32_t motion_position(const struct servo *s)
-{
-    return motion_present_units(s);
+    motion_forget_reference(s); /* §4.5: RESET clears the homing reference */
 }

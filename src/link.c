@@ -14,6 +14,15 @@ uint32_t link_baud(const struct board *b, uint8_t code)
     return code < sizeof baud_codes / sizeof baud_codes[0] ? baud_codes[code] : 0;
 }
 
+bool link_baud_reachable(const struct servo *s, uint8_t addr, const uint8_t *data, uint8_t n)
+{
+    if (addr > REG_BAUD_RATE || REG_BAUD_RATE - addr >= n)
+        return true;
+    uint32_t want = link_baud(s->board, data[REG_BAUD_RATE - addr]);
+    uint32_t got = hal_uart_baud_achieved(s->hal, want);
+    return (got > want ? got - want : want - got) <= want / 50u;
+}
+
 uint32_t link_bytes_us(uint32_t baud, uint32_t n)
 {
     /* 32-bit only (no 64-bit division in the image); exact for n < 2000 bytes. */
@@ -21,9 +30,23 @@ uint32_t link_bytes_us(uint32_t baud, uint32_t n)
     return n * (bits_us / baud) + (n * (bits_us % baud) + baud - 1u) / baud;
 }
 
+uint32_t link_ping_slot_us(const struct link *l)
+{
+    return (uint32_t)l->id * link_bytes_us(l->baud, 9u);
+}
+
+void link_settings_written(struct link *l)
+{
+    l->relatch = 1;
+}
+
 void link_latch(struct servo *s)
 {
     struct link *l = &s->link;
+    l->relatch = 0;
+#ifndef SERVO_BOOTLOADER /* update mode leaves the terminator as reset left it: off */
+    hal_rs485_termination(s->hal, s->regs.mem[REG_RS485_TERMINATION] != 0u);
+#endif
     l->id = s->regs.mem[REG_ID];
     l->level = s->regs.mem[REG_STATUS_RETURN_LEVEL];
     l->report = s->regs.mem[REG_UNLOAD_CONDITIONS] & (UNLOAD_REPORT_INSTRUCTION |
@@ -56,7 +79,8 @@ bool link_poll(struct servo *s, uint32_t now_us, bool rx_idle)
         if (hal_uart_tx_busy(s->hal))
             return false;
         l->state = LINK_IDLE;
-        link_latch(s); /* the answer is out: new settings may take effect */
+        if (l->relatch)
+            link_latch(s); /* the answer is out: written settings take effect (§1) */
         return true;
     case LINK_WAITING:
         /* Never talk over a frame that is still arriving (half duplex). */

@@ -10,13 +10,13 @@
 uint8_t loader_update_frame(struct servo *s, const struct frame *f)
 {
     struct link *l = &s->link;
-    if (f->buf[0] != l->id)
+    if (f->buf[0] != link_id(l))
         return UPDATE_GO_ON; /* §10 frames go to one ID; a broadcast is not for us */
     uint8_t ans[2], n;
     uint8_t out = update_frame(&s->update, s->hal, s->board->model_number, f->buf, f->len,
                                f->status == FRAME_OK, f->end_us, ans, &n);
     /* Always answered (whatever register 16 says), ERR 0, after the return delay. */
-    link_answer(s, l->id, 0, ans, n, link_reply_at(l, f->end_us));
+    link_answer(s, link_id(l), 0, ans, n, link_reply_at(l, f->end_us));
     if (out == UPDATE_RESTART)
         s->restart = 1;
     return out;
@@ -53,9 +53,9 @@ void loader_init(struct servo *s, const struct board *b, struct hal *hal)
     s->board = b;
     s->in_loader = 1;
     loader_settings(hal, b, &set);
-    s->regs.mem[REG_ID] = set.id;
-    s->regs.mem[REG_BAUD_RATE] = set.baud_code;
-    s->regs.mem[REG_RETURN_DELAY] = set.delay;
+    regs_put8(&s->regs, REG_ID, set.id);
+    regs_put8(&s->regs, REG_BAUD_RATE, set.baud_code);
+    regs_put8(&s->regs, REG_RETURN_DELAY, set.delay);
     frame_rx_init(&s->rx, link_baud(b, set.baud_code));
     link_latch(s);
 }

@@ -34,10 +34,33 @@ void motion_set_limits(struct servo *s, uint16_t speed)
     m->lim.dec = scale_accel_q24(s->board->counts_per_rev, s->regs.mem[a + 1u], m->lim.vmax);
 }
 
+/* Counts x 2^24 to position units from the zero, and back. */
+static int32_t q24_to_units(const struct servo *s, int64_t q24)
+{
+    return scale_counts_to_units(motion_scale(s), (q24 >> PLANNER_SHIFT) - s->motion.zero);
+}
+
+static int64_t units_to_q24(const struct servo *s, int32_t units)
+{
+    return (s->motion.zero + scale_units_to_counts(motion_scale(s), units)) * PLANNER_ONE;
+}
+
+void motion_rest_span(const struct servo *s, int32_t *lo, int32_t *hi)
+{
+    const struct motion *m = &s->motion;
+    if (m->mode != MOTION_HOLD) {
+        *lo = *hi = motion_present_units(s);
+        return;
+    }
+    const int64_t band = CONTROL_HOLD_BAND * PLANNER_ONE;
+    *lo = q24_to_units(s, m->plan.pos - band);
+    *hi = q24_to_units(s, m->plan.pos + band);
+}
+
 /* The present position in units, as registers 36 and 40 report it. */
 int32_t motion_present_units(const struct servo *s)
 {
-    return scale_counts_to_units(motion_scale(s), s->motion.ctl.counts - s->motion.zero);
+    return q24_to_units(s, s->motion.ctl.counts * PLANNER_ONE);
 }
 
 bool motion_may_start(const struct servo *s)
@@ -56,7 +79,8 @@ bool motion_referenced_for(const struct servo *s, bool speed_mode)
 /* Homing is over: status nibble of register 24, the written nibble kept. */
 static void homing_status(struct servo *s, uint8_t status)
 {
-    s->regs.mem[REG_HOMING] = (uint8_t)(((uint32_t)status << 4) | (s->regs.mem[REG_HOMING] & 0x0Fu));
+    regs_set(&s->regs, REG_HOMING,
+             (uint8_t)(((uint32_t)status << 4) | (s->regs.mem[REG_HOMING] & 0x0Fu)));
 }
 
 static void homing_fail(struct servo *s)
@@ -90,6 +114,25 @@ void motion_coast(struct servo *s)
     hal_motor_enable(s->hal, false);
 }
 
+/* In position mode the goal register reads where the motor heads or what it holds
+ * (after a move ends, a cancel, a stop), clamped to the limits (§5.4: CW <= goal <= CCW
+ * whenever it is read). Speed mode keeps the goal as written (the base's is relative). */
+static void goal_follows(struct servo *s, int64_t q24)
+{
+    struct regs *r = &s->regs;
+    if (regs_speed_mode(r))
+        return;
+    int32_t u = q24_to_units(s, q24);
+    regs_set(r, REG_GOAL_POSITION, regs_clamp_goal(r, (uint16_t)(u < 0 ? 0 : u > 0xFFFF ? 0xFFFF : u)));
+}
+
+/* The reference rests: hold it, and the goal reads it. */
+static void hold_reached(struct servo *s)
+{
+    s->motion.mode = MOTION_HOLD;
+    goal_follows(s, s->motion.plan.pos);
+}
+
 /* Stop at once and hold where the shaft is (brake, resolution change). */
 void motion_hold_here(struct servo *s)
 {
@@ -100,7 +143,7 @@ void motion_hold_here(struct servo *s)
         return;
     m->plan.pos = m->ctl.counts * PLANNER_ONE;
     m->plan.vel = 0;
-    m->mode = MOTION_HOLD;
+    hold_reached(s);
 }
 
 /* Brake (§6.3): stop at once and hold with torque, from any state, coasting included
@@ -114,12 +157,20 @@ void motion_brake_hold(struct servo *s)
     motion_hold_here(s);
 }
 
-/* Ramp down with the deceleration, then hold (heartbeat). */
-static void stop_soft(struct servo *s)
+/* Ramp down with the deceleration, then hold: still (the heartbeat, §7.1), or within the
+ * limits (a trajectory replaced, a motion that may not go on). */
+static void stop_soft(struct servo *s, bool within)
 {
     struct motion *m = &s->motion;
-    if (m->mode != MOTION_OFF && m->mode != MOTION_HOLD)
+    if (m->mode != MOTION_OFF && m->mode != MOTION_HOLD) {
         m->mode = MOTION_STOP;
+        m->stop_within = within;
+    }
+}
+
+void motion_stop_soft(struct servo *s)
+{
+    stop_soft(s, true);
 }
 
 void motion_start_homing(struct servo *s)
@@ -150,7 +201,9 @@ void motion_start_homing(struct servo *s)
 static bool homing_end(struct servo *s)
 {
     struct motion *m = &s->motion;
-    int32_t end = scale_counts_to_units(motion_scale(s), m->ctl.sw_edge - m->zero);
+    /* The end as the position reads wherever the shaft settles on the edge (a count
+     * either side of the hold): within the limits it sets, at any resolution. */
+    int32_t end = q24_to_units(s, (m->ctl.sw_edge + CONTROL_HOLD_BAND) * PLANNER_ONE);
     if (end < 1 || end > 0x7FFF) {
         motion_hold_here(s);
         return false;
@@ -158,7 +211,7 @@ static bool homing_end(struct servo *s)
     regs_set(&s->regs, REG_CW_LIMIT, 0);
     regs_set(&s->regs, REG_CCW_LIMIT, (uint16_t)end);
     m->target = m->ctl.sw_edge * PLANNER_ONE; /* stop and hold at the end itself */
-    regs_set(&s->regs, REG_GOAL_POSITION, (uint16_t)end);
+    regs_set(&s->regs, REG_GOAL_POSITION, (uint16_t)q24_to_units(s, m->target));
     return true;
 }
 
@@ -206,7 +259,7 @@ void motion_start_move(struct servo *s, int32_t units, uint16_t speed)
         return; /* a goal with speed 0 (or braked, asleep) is stored, nothing moves */
     motion_engage(s);
     motion_set_limits(s, speed);
-    m->target = (m->zero + scale_units_to_counts(motion_scale(s), units)) * PLANNER_ONE;
+    m->target = units_to_q24(s, units);
     m->mode = MOTION_MOVE;
 }
 
@@ -223,6 +276,114 @@ void motion_start_speed(struct servo *s, uint16_t speed)
     motion_set_limits(s, speed);
     m->speed_target = (speed & 0x8000u) ? -m->lim.vmax : m->lim.vmax;
     m->mode = MOTION_SPEED;
+}
+
+uint8_t motion_mode(const struct servo *s)
+{
+    return s->motion.mode;
+}
+
+void motion_mirror(struct servo *s, int8_t sign)
+{
+    struct motion *m = &s->motion;
+    if (m->ctl.sign == sign)
+        return;
+    motion_coast(s); /* the motor is mirrored from now on: the reference is gone */
+    control_mirror(&m->ctl);
+    m->zero = -m->zero;
+    m->referenced = 0;
+    homing_status(s, HOMING_NEVER); /* register 24 no longer reads "done" */
+}
+
+void motion_homing_abort(struct servo *s)
+{
+    if (s->motion.mode == MOTION_HOME)
+        motion_hold_here(s);
+}
+
+void motion_new_ramps(struct servo *s)
+{
+    /* Re-planned at the cruise speed in force (a trajectory point's, a CUSTOM MOVE's:
+     * not register 32's); homing keeps its own. */
+    if (s->motion.mode != MOTION_OFF && s->motion.mode != MOTION_HOME)
+        motion_set_limits(s, s->motion.cruise);
+}
+
+void motion_zero_here(struct servo *s)
+{
+    struct motion *m = &s->motion;
+    m->zero = m->ctl.counts;
+    if (m->mode == MOTION_HOLD) { /* hold exactly the new 0, where the shaft is */
+        m->plan.pos = m->ctl.counts * PLANNER_ONE;
+        m->plan.vel = 0;
+    }
+}
+
+void motion_forget_reference(struct servo *s)
+{
+    s->motion.zero = s->motion.ctl.counts;
+    s->motion.referenced = 0;
+}
+
+/* Where the reference comes to rest braking now at the deceleration in force. */
+static int64_t stop_point(const struct motion *m)
+{
+    int64_t d = planner_stop_distance(m->plan.vel < 0 ? -m->plan.vel : m->plan.vel, m->lim.dec);
+    return m->plan.pos + (m->plan.vel < 0 ? -d : d);
+}
+
+void motion_limits_changed(struct servo *s)
+{
+    struct motion *m = &s->motion;
+    struct regs *r = &s->regs;
+    if (regs_speed_mode(r))
+        return;
+    regs_set(r, REG_GOAL_POSITION, regs_clamp_goal(r, regs_get(r, REG_GOAL_POSITION)));
+    traj_clamp(&s->traj, r);
+    int64_t at;
+    switch (m->mode) {
+    case MOTION_MOVE: /* past a limit, the planner brakes at the deceleration, comes back */
+    case MOTION_TRAJ: /* (and its stored points are clamped above) */
+        at = m->target;
+        break;
+    case MOTION_SPEED: /* speed mode left while turning (§6.2): it stops within them */
+    case MOTION_STOP:
+        at = stop_point(m);
+        break;
+    case MOTION_HOLD: /* held outside the new limits: back within, unless braked (§6.3) */
+        if (r->mem[REG_BRAKE])
+            return;
+        at = m->plan.pos;
+        break;
+    default: /* torque off: the next motion command moves within them; homing sets them */
+        return;
+    }
+    int32_t u = q24_to_units(s, at);
+    int32_t lo = regs_get(r, REG_CW_LIMIT), hi = regs_get(r, REG_CCW_LIMIT);
+    int32_t in = u < lo ? lo : u > hi ? hi : u;
+    if (m->mode == MOTION_TRAJ) {
+        m->target = units_to_q24(s, in);
+        return;
+    }
+    if (m->mode == MOTION_HOLD) {
+        /* Within as the position register reads it wherever the held shaft settles (a
+         * count either side): START/END 2 and homing set a limit to where it holds. */
+        int32_t rest_lo, rest_hi;
+        motion_rest_span(s, &rest_lo, &rest_hi);
+        if (rest_lo >= lo && rest_hi <= hi)
+            return;
+    }
+    /* On at the cruise speed in force or, from a hold, the homing speed. */
+    uint16_t cruise = (uint16_t)(m->mode == MOTION_HOLD ? 0u : m->cruise & PROTO_SPEED_MAGNITUDE);
+    if (!cruise) {
+        int32_t v = (int32_t)s->board->homing_dps * 10 / r->mem[REG_RESOLUTION];
+        cruise = (uint16_t)(v < 1 ? 1 : v > 0x7FFF ? 0x7FFF : v);
+    }
+    motion_start_move(s, in, cruise);
+    if (m->mode == MOTION_MOVE)
+        goal_follows(s, m->target);
+    else
+        motion_stop_soft(s); /* it may not move on (register 49's speed mode, unhomed) */
 }
 
 /* Goal register written: absolute move, or on the base a move relative to the present
@@ -246,6 +407,7 @@ static struct sequence_frame seq_frame(const struct servo *s)
 void motion_start_traj(struct servo *s)
 {
     struct motion *m = &s->motion;
+    traj_clamp(&s->traj, &s->regs); /* points stored before the limits narrowed (§5.4) */
     motion_engage(s);
     m->mode = MOTION_TRAJ;
     struct sequence_frame f = seq_frame(s);
@@ -264,7 +426,7 @@ static void traj_tick(struct servo *s)
         motion_set_limits(s, sequence_speed(&m->seq, &s->traj));
         break;
     case SEQ_DONE:
-        m->mode = MOTION_HOLD;
+        hold_reached(s);
         break;
     default:
         break;
@@ -296,7 +458,7 @@ static void protect(struct servo *s)
                !(m->mode == MOTION_HOME && homing_returning(&m->home))) {
         if (m->mode == MOTION_HOME)
             homing_fail(s);
-        stop_soft(s);
+        stop_soft(s, false); /* §7.1: it stops and holds still */
     }
     if (m->mode == MOTION_HOME && safety_stalled(&s->safety))
         motion_hold_here(s); /* a stall fails homing */
@@ -310,15 +472,18 @@ static void tick(struct servo *s)
     switch (m->mode) {
     case MOTION_STOP:
         planner_step_speed(&m->plan, 0, &m->lim);
-        if (m->plan.vel == 0)
-            m->mode = MOTION_HOLD;
+        if (m->plan.vel == 0) {
+            hold_reached(s);
+            if (m->stop_within)
+                motion_limits_changed(s); /* back within them if it stopped outside */
+        }
         break;
     case MOTION_HOME:
         homing_tick(s);
         break;
     case MOTION_MOVE:
         if (planner_step_to(&m->plan, m->target, &m->lim))
-            m->mode = MOTION_HOLD;
+            hold_reached(s);
         break;
     case MOTION_SPEED:
         planner_step_speed(&m->plan, m->speed_target, &m->lim);

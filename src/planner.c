@@ -48,6 +48,14 @@ int32_t planner_brake_speed(int64_t dist, int32_t dec)
     return v > INT32_MAX ? INT32_MAX : (int32_t)v;
 }
 
+int64_t planner_stop_distance(int32_t v, int32_t dec)
+{
+    if (v <= 0)
+        return 0;
+    uint64_t n = (uint64_t)v / (uint64_t)dec; /* T(v) = (n + 1) v - dec n (n + 1) / 2 */
+    return (int64_t)((n + 1u) * (uint64_t)v - brake_loss((uint64_t)dec, n));
+}
+
 /* Move the velocity toward want, by at most acc when speeding up and dec when slowing
  * down (a reversal slows to zero first). */
 static int32_t ramp(int32_t vel, int32_t want, const struct plan_limits *lim)

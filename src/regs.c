@@ -32,7 +32,10 @@ const struct reg_desc regs_table[REGS_SIZE] = {
         TEXT(REG_UNIT_NONE, 0, "id", "Bus ID. Takes effect after the answer to the write has been sent.")},
     [REG_BAUD_RATE] = {1, RW, EE, REG_V_ALL, REG_DEF_CONST, 0, 0, 10
         TEXT(REG_UNIT_NONE, 0, "baud_rate", "Baud rate code (0 = the variant's default, see the baud table). "
-                          "Takes effect after the answer has been sent.")},
+                          "Takes effect after the answer has been sent. A code the servo's clock "
+                          "cannot make within 2 % is refused with an instruction error: a servo "
+                          "whose crystal failed runs on a fall-back clock, and on the 8 MHz one "
+                          "codes 6-10 are out of reach, so their refusal reports it.")},
     [REG_RETURN_DELAY] = {1, RW, EE, REG_V_ALL, REG_DEF_RETURN_DELAY, 0, 0, 255
         TEXT(REG_UNIT_DELAY, 0, "return_delay", "Delay between the last request byte and the answer.")},
     [REG_CW_LIMIT] = {2, RW, EE, REG_V_ALL, REG_DEF_CONST, 0, 0, 0x7FFF
@@ -145,6 +148,16 @@ void regs_set(struct regs *r, uint8_t addr, uint16_t value)
         r->mem[addr] = (uint8_t)value;
 }
 
+void regs_set_lazy(struct regs *r, uint8_t addr, uint16_t value)
+{
+    uint8_t was = r->ee_changed;
+    regs_set(r, addr, value);
+    if (r->ee_changed && !was) {
+        r->ee_changed = 0;
+        r->ee_lazy = 1;
+    }
+}
+
 void regs_reset(struct regs *r)
 {
     for (uint8_t a = 0; a < REGS_SIZE; a++)
@@ -158,12 +171,20 @@ void regs_init(struct regs *r, const struct board *b)
     r->board = b;
     regs_reset(r);
     r->ee_changed = 0;
+    r->ee_lazy = 0;
 }
 
 bool regs_take_ee_changed(struct regs *r)
 {
     bool changed = r->ee_changed != 0u;
     r->ee_changed = 0;
+    return changed;
+}
+
+bool regs_take_ee_lazy(struct regs *r)
+{
+    bool changed = r->ee_lazy != 0u;
+    r->ee_lazy = 0;
     return changed;
 }
 
@@ -228,6 +249,14 @@ uint8_t regs_first_invalid(const struct regs *r)
             return a;
     }
     return regs_get(r, REG_CW_LIMIT) > regs_get(r, REG_CCW_LIMIT) ? REG_CW_LIMIT : REGS_SIZE;
+}
+
+uint64_t regs_mask(uint8_t addr, uint8_t n)
+{
+    uint64_t m = 0;
+    for (uint8_t i = 0; i < n && addr + i < REGS_SIZE; i++)
+        m |= (uint64_t)1 << (addr + i);
+    return m;
 }
 
 bool regs_touches_area(uint8_t addr, uint8_t n, uint8_t area)

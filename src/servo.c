@@ -2,6 +2,7 @@
 #include <string.h>
 
 #include "boot.h"
+#include "clock.h"
 #include "dispatch.h"
 #include "hal.h"
 #include "image.h"
@@ -27,7 +28,7 @@ void servo_init(struct servo *s, const struct board *b, struct hal *hal)
     s->board = b;
     s->fw_version = running_version(hal, b);
     regs_init(&s->regs, b);
-    s->regs.mem[REG_FIRMWARE_VERSION] = s->fw_version;
+    regs_set(&s->regs, REG_FIRMWARE_VERSION, s->fw_version);
     store_load(&s->store, hal, &s->regs, hal_clock_us(hal));
     frame_rx_init(&s->rx, link_baud(b, s->regs.mem[REG_BAUD_RATE]));
     link_latch(s);
@@ -62,27 +63,28 @@ static void servo_pass(struct servo *s, uint32_t now)
     hal_watchdog_feed(s->hal);
     uint32_t irq = hal_irq_save(s->hal);
     bool rx_idle = frame_rx_idle(&s->rx, now);
+    bool rx_rested = app && frame_rx_quiet(&s->rx, now); /* no erase inside a burst */
     hal_irq_restore(s->hal, irq);
-    bool sending = s->link.state == LINK_SENDING;
+    bool sending = link_state(&s->link) == LINK_SENDING;
     bool link_idle = link_poll(s, now, rx_idle);
-    if (sending && link_idle)
-        s->answered = 1; /* its last stop bit is out */
     /* Flash work (an erase stalls the CPU) only while nothing moves and the bus rests. */
-    bool quiet = link_idle && rx_idle && !s->regs.mem[REG_MOVING];
+    bool quiet = link_idle && rx_rested && !s->regs.mem[REG_MOVING];
     if (app) {
+        if ((sending && link_idle) || clock_since(now, s->start_us) >= BOOT_CONFIRM_US)
+            s->confirm_due = 1; /* an answer's last stop bit is out, or the loop ran a while */
         /* The start is confirmed once this image has answered on the bus or run its main
          * loop for a while (boot.h): a half-word programmed, microseconds. An erase of the
          * record (rare) waits for quiet, and the store's own erase for the next pass: one
          * erase per pass at most. */
-        if (!s->confirmed && (s->answered || now - s->start_us >= BOOT_CONFIRM_US)) {
+        if (!s->confirmed && s->confirm_due) {
             s->confirmed = boot_confirm(s->hal, quiet);
             quiet = false;
         }
         store_poll(&s->store, &s->regs, now, quiet);
     }
-    if (!link_idle)
-        return;
-    if (s->restart) { /* a verified update: its ACK is out */
+    if (link_state(&s->link) == LINK_SENDING)
+        return; /* half duplex: nothing arrives for us while we talk */
+    if (link_idle && s->restart) { /* a verified update: its ACK is out */
         if (app) {
             (void)regs_take_ee_changed(&s->regs); /* the flush commits whatever differs */
             store_flush(&s->store, &s->regs, now);
@@ -91,6 +93,9 @@ static void servo_pass(struct servo *s, uint32_t now)
         return;
     }
     (void)update_active(&s->update, now); /* a silent session times out */
+    /* A frame is executed even while an earlier answer waits for its return delay or its
+     * broadcast PING slot: a stop never waits behind an answer (rule 3). If it gets an
+     * answer of its own, that one replaces the waiting one (docs/decisions.md). */
     const struct frame *f = frame_rx_peek(&s->rx);
     if (!f)
         return;
@@ -100,7 +105,7 @@ static void servo_pass(struct servo *s, uint32_t now)
     } else if (update_is_frame(f->buf, f->len)) /* update mode answers §10 frames only */
         (void)loader_update_frame(s, f);
     frame_rx_release(&s->rx);
-    if (s->link.state == LINK_IDLE)
+    if (link_relatch_due(&s->link))
         link_latch(s); /* no answer: a new ID or baud applies at once */
 }
 
@@ -112,8 +117,12 @@ void servo_poll(struct servo *s)
      * the end of the pass: a frame's answer is only scheduled by dispatch and starts in a
      * later pass (link_poll), so an answered write within the commit budget is in flash
      * before the first byte of its answer leaves. Nothing changed: no store work at all. */
-    if (APPLICATION(s) && regs_take_ee_changed(&s->regs))
-        store_sync(&s->store, &s->regs, now);
+    if (APPLICATION(s)) {
+        if (regs_take_ee_lazy(&s->regs))
+            store_defer(&s->store);
+        if (regs_take_ee_changed(&s->regs))
+            store_sync(&s->store, &s->regs, now);
+    }
 }
 
 void servo_power_on(struct servo *s, const struct board *b, struct hal *hal)

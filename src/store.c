@@ -1,6 +1,7 @@
 /* store.c - power-loss-safe emulated EEPROM on flash pages (layout in store.h). */
 #include <string.h>
 
+#include "clock.h"
 #include "crc.h"
 #include "hal.h"
 #include "proto.h"
@@ -147,7 +148,6 @@ void store_load(struct store *st, struct hal *hal, struct regs *r, uint32_t now_
     st->tokens = STORE_BURST;
     st->refill_us = STORE_REFILL_US;
     st->token_at = now_us;
-    st->retry_at = now_us;
     struct store_values v = {0};
     st->active = newest_page(hal, &st->seq);
     if (st->active != STORE_NO_PAGE)
@@ -258,18 +258,30 @@ static bool commit(struct store *st, const struct regs *r)
 }
 
 /* Rate limit (see docs/persistence.md): may a commit happen now? Tokens refill one per
- * refill_us up to STORE_BURST. */
+ * refill_us up to STORE_BURST. store_poll() calls this every main-loop pass, so the time
+ * since token_at never reaches the clock's wrap: a full bucket moves token_at along, and
+ * a refilling one is at most STORE_BURST x 64 s (68 min) behind. */
 static bool token_ready(struct store *st, uint32_t now_us)
 {
     if (st->refill_us == 0u)
         return true;
-    while (st->tokens < STORE_BURST && now_us - st->token_at >= st->refill_us) {
+    while (st->tokens < STORE_BURST && clock_since(now_us, st->token_at) >= st->refill_us) {
         st->tokens++;
         st->token_at += st->refill_us;
     }
     if (st->tokens == STORE_BURST)
         st->token_at = now_us;
     return st->tokens > 0u;
+}
+
+uint8_t store_tokens(const struct store *st)
+{
+    return st->tokens;
+}
+
+void store_defer(struct store *st)
+{
+    st->lazy = 1;
 }
 
 void store_sync(struct store *st, const struct regs *r, uint32_t now_us)
@@ -280,6 +292,7 @@ void store_sync(struct store *st, const struct regs *r, uint32_t now_us)
     }
     if (next_reg(r->board, r->mem, st->saved, 0) == REGS_SIZE) {
         st->pending = 0;
+        st->lazy = 0;
         return; /* nothing changed: no flash write */
     }
     if (st->refill_us)
@@ -291,6 +304,7 @@ void store_sync(struct store *st, const struct regs *r, uint32_t now_us)
             if (stored(r->board, a))
                 memcpy(&st->saved[a], &r->mem[a], regs_table[a].size);
         st->pending = 0;
+        st->lazy = 0; /* a waiting lazy change went with it */
     } else {
         st->pending = 1; /* retried by store_poll, into a fresh page */
         st->next = HAL_FLASH_PAGE_BYTES;
@@ -299,16 +313,20 @@ void store_sync(struct store *st, const struct regs *r, uint32_t now_us)
 
 void store_poll(struct store *st, const struct regs *r, uint32_t now_us, bool idle)
 {
-    if (st->pending)
+    bool full = token_ready(st, now_us) && st->tokens == STORE_BURST;
+    if (st->pending || (st->lazy && idle && full))
         store_sync(st, r, now_us);
-    if (!st->spare_blank && idle && (int32_t)(now_us - st->retry_at) >= 0) {
+    /* A failed erase stalls the CPU for nothing: the next try waits a second. */
+    if (!st->spare_blank && idle && (!st->retrying || clock_since(now_us, st->failed_at) >= 1000000u)) {
         uint8_t p = spare_page(st);
         const uint8_t *page = hal_flash_page(st->hal, p);
+        st->retrying = 0;
         if (page_blank(page) || (hal_flash_erase(st->hal, p) && page_blank(page))) {
             st->spare_blank = 1;
         } else {
             st->faults++;
-            st->retry_at = now_us + 1000000u; /* each try stalls the CPU: once a second */
+            st->retrying = 1;
+            st->failed_at = now_us;
         }
     }
 }

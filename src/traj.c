@@ -37,3 +37,9 @@ void traj_clear(struct traj *t)
 {
     t->count = 0;
 }
+
+void traj_clamp(struct traj *t, const struct regs *r)
+{
+    for (uint8_t i = 0; i < t->count; i++)
+        t->pt[i].angle = regs_clamp_goal(r, t->pt[i].angle);
+}

@@ -30,18 +30,18 @@ static struct vbus bus;
 static uint8_t bus_ans[PROTO_STATUS_MAX];
 static uint8_t bus_ans_len;
 
-static struct hal *bus_hal(void)
+static inline struct hal *bus_hal(void)
 {
     return &bus.node[0].hal;
 }
 
-static void bus_run_ms(uint32_t ms)
+static inline void bus_run_ms(uint32_t ms)
 {
     vbus_run_until(&bus, bus.now_us + ms * 1000u);
 }
 
 /* Drop whatever the servo sent that nobody read. */
-static void bus_drain(void)
+static inline void bus_drain(void)
 {
     while (vbus_host_pending(&bus))
         (void)vbus_host_next(&bus);
@@ -50,7 +50,7 @@ static void bus_drain(void)
 /* Send one instruction to ID id and wait for its answer (none for broadcast) to end.
  * Returns the ERR byte (PING: the 0x01 in its place, §4.1), or -1 if no well-formed
  * answer came. */
-static int bus_ins_to(uint8_t id, uint8_t ins, const uint8_t *par, uint8_t n)
+static inline int bus_ins_to(uint8_t id, uint8_t ins, const uint8_t *par, uint8_t n)
 {
     uint8_t pkt[260];
     uint16_t len = proto_build_packet(pkt, id, ins, par, n);
@@ -83,12 +83,12 @@ static int bus_ins_to(uint8_t id, uint8_t ins, const uint8_t *par, uint8_t n)
     return got[4];
 }
 
-static int bus_ins(uint8_t ins, const uint8_t *par, uint8_t n)
+static inline int bus_ins(uint8_t ins, const uint8_t *par, uint8_t n)
 {
     return bus_ins_to(BUS_ID, ins, par, n);
 }
 
-static int bus_write(uint8_t addr, const uint8_t *data, uint8_t n)
+static inline int bus_write(uint8_t addr, const uint8_t *data, uint8_t n)
 {
     uint8_t p[64];
     p[0] = addr;
@@ -96,19 +96,19 @@ static int bus_write(uint8_t addr, const uint8_t *data, uint8_t n)
     return bus_ins(INS_WRITE, p, (uint8_t)(n + 1u));
 }
 
-static int bus_w8(uint8_t addr, uint8_t v)
+static inline int bus_w8(uint8_t addr, uint8_t v)
 {
     return bus_write(addr, &v, 1);
 }
 
-static int bus_w16(uint8_t addr, uint16_t v)
+static inline int bus_w16(uint8_t addr, uint16_t v)
 {
     uint8_t d[2] = {(uint8_t)v, (uint8_t)(v >> 8)};
     return bus_write(addr, d, 2);
 }
 
 /* READ of the whole table into t[0..REGS_SIZE); false if no answer. */
-static bool bus_read_table(uint8_t *t)
+static inline bool bus_read_table(uint8_t *t)
 {
     uint8_t p[2] = {0, REGS_SIZE};
     if (bus_ins(INS_READ, p, 2) < 0 || bus_ans_len != REGS_SIZE)
@@ -117,34 +117,34 @@ static bool bus_read_table(uint8_t *t)
     return true;
 }
 
-static uint16_t tab16(const uint8_t *t, uint8_t addr)
+static inline uint16_t tab16(const uint8_t *t, uint8_t addr)
 {
     return (uint16_t)(t[addr] | (t[addr + 1u] << 8));
 }
 
 /* The present position as the table reports it: 36 on wrist and finger, else the
  * signed turned angle (40). */
-static int32_t tab_position(const struct board *b, const uint8_t *t)
+static inline int32_t tab_position(const struct board *b, const uint8_t *t)
 {
     if (b->variant == VARIANT_WRIST || b->variant == VARIANT_FINGER)
         return tab16(t, REG_PRESENT_POSITION);
     return (int16_t)tab16(t, REG_TURNED_ANGLE);
 }
 
-static int32_t tab_speed(const uint8_t *t)
+static inline int32_t tab_speed(const uint8_t *t)
 {
     return (int16_t)tab16(t, REG_PRESENT_SPEED);
 }
 
 /* After a baud change is answered, the host follows. */
-static void bus_follow_baud(uint32_t baud)
+static inline void bus_follow_baud(uint32_t baud)
 {
     bus_run_ms(1);
     bus.host_baud = baud;
 }
 
 /* A fresh servo of board b on an empty bus, at BUS_FAST_BAUD with return delay 0. */
-static bool bus_open(const struct board *b)
+static inline bool bus_open(const struct board *b)
 {
     vbus_init(&bus);
     bus.step_us = BUS_STEP_US;
@@ -159,7 +159,7 @@ static bool bus_open(const struct board *b)
 
 /* Wait for homing to end, polling register 24 every 100 ms as servoctl home --wait does
  * (the polls keep the heartbeat fed); returns the status nibble (1: still running). */
-static uint8_t bus_home_wait(uint32_t timeout_ms)
+static inline uint8_t bus_home_wait(uint32_t timeout_ms)
 {
     uint8_t p[2] = {REG_HOMING, 1};
     for (uint32_t t = 0; t < timeout_ms; t += 100u) {
@@ -171,7 +171,7 @@ static uint8_t bus_home_wait(uint32_t timeout_ms)
 }
 
 /* Homing (register 24 := 1), waited for; returns the status nibble. */
-static uint8_t bus_home(uint32_t timeout_ms)
+static inline uint8_t bus_home(uint32_t timeout_ms)
 {
     if (bus_w8(REG_HOMING, 1) != 0)
         return 0xFF;

@@ -135,14 +135,14 @@ static bool send(const uint8_t *b, uint32_t n, const uint8_t *want, uint32_t wn)
     uint32_t end = hal.now_us + 3000u;
     for (int guard = 0; guard < 400; guard++) {
         /* A frame may become ready inside servo_poll() (the receiver's time-out), so the
-         * dispatched one is looked up afterwards, in the slot the ring's old tail named. */
-        uint8_t tail = servo.rx.ready_tail;
+         * dispatched one is looked up afterwards: the one the pass peeked (the
+         * receiver's view), its bytes untouched until the next byte arrives. */
+        uint8_t tail = servo.rx.rec_tail;
         poll();
-        bool dispatched = servo.rx.ready_tail != tail;
+        bool dispatched = servo.rx.rec_tail != tail;
         if (dispatched) {
-            uint8_t e = servo.rx.ready[tail & (FRAME_READY - 1u)];
-            const struct frame *f = &servo.rx.slot[e];
-            if (e == FRAME_BLOCK) /* a corrupted byte made a §10 data block: never valid */
+            const struct frame *f = &servo.rx.view;
+            if (f->len == FRAME_BLOCK_BYTES) /* a corrupted byte made a §10 data block */
                 escape = escape || f->status == FRAME_OK;
             else if (f->status == FRAME_OK &&
                 (f->len != wn - 2u || memcmp(f->buf, &want[2], f->len) != 0))

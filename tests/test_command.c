@@ -11,6 +11,7 @@
 
 #include <cmocka.h>
 
+#include "command.h"
 #include "motion.h"
 #include "motion_mode.h"
 #include "proto.h"
@@ -21,7 +22,7 @@
 
 static char calls[256];
 static struct {
-    bool may_start, referenced, unloaded, may_clear;
+    bool may_start, referenced, unloaded;
     int32_t present;
 } fake;
 
@@ -70,7 +71,7 @@ void motion_coast(struct servo *s)
 }
 void motion_hold_here(struct servo *s)
 {
-    (void)s;
+    s->motion.mode = MOTION_HOLD;
     called("hold");
 }
 void motion_brake_hold(struct servo *s)
@@ -102,20 +103,56 @@ void motion_start_traj(struct servo *s)
     (void)s;
     called("traj");
 }
+void motion_rest_span(const struct servo *s, int32_t *lo, int32_t *hi)
+{
+    (void)s;
+    *lo = *hi = fake.present;
+}
+uint8_t motion_mode(const struct servo *s)
+{
+    return s->motion.mode;
+}
+void motion_stop_soft(struct servo *s)
+{
+    s->motion.mode = MOTION_STOP;
+    called("stop");
+}
+void motion_mirror(struct servo *s, int8_t sign)
+{
+    (void)s;
+    char b[32];
+    snprintf(b, sizeof b, "mirror %d", sign);
+    called(b);
+}
+void motion_homing_abort(struct servo *s)
+{
+    if (s->motion.mode == MOTION_HOME)
+        motion_hold_here(s);
+}
+void motion_new_ramps(struct servo *s)
+{
+    (void)s;
+    called("ramps");
+}
+void motion_zero_here(struct servo *s)
+{
+    s->motion.zero = s->motion.ctl.counts;
+    called("zero");
+}
+void motion_forget_reference(struct servo *s)
+{
+    (void)s;
+    called("forget");
+}
+void motion_limits_changed(struct servo *s)
+{
+    (void)s;
+    called("limits changed");
+}
 bool safety_unloaded(const struct safety *sf)
 {
     (void)sf;
     return fake.unloaded;
-}
-bool safety_may_clear(const struct safety *sf)
-{
-    (void)sf;
-    return fake.may_clear;
-}
-void safety_clear(struct safety *sf)
-{
-    (void)sf;
-    called("clear");
 }
 
 /* ---- harness ------------------------------------------------------------------------ */
@@ -128,21 +165,22 @@ static void fresh(const struct board *b)
     s.board = b;
     regs_init(&s.regs, b);
     calls[0] = 0;
-    fake.may_start = fake.referenced = fake.may_clear = true;
+    fake.may_start = fake.referenced = true;
     fake.unloaded = false;
     fake.present = 0;
 }
 
-/* A host write as dispatch does it: allowed?, then the values, then motion_on_write. */
+/* A host write as write.c does it: checked, then the values, then command_written. */
 static bool write16(uint8_t addr, uint16_t v)
 {
     uint8_t d[2] = {(uint8_t)v, (uint8_t)(v >> 8)};
-    uint8_t n = regs_table[addr].size;
-    if (!motion_write_allowed(&s, addr, d, n))
+    const struct reg_write w = {addr, regs_table[addr].size, s.regs.mem[REG_RESOLUTION], d,
+                               regs_mask(addr, regs_table[addr].size)};
+    if (command_write_check(&s, &w))
         return false;
     regs_set(&s.regs, addr, v);
     calls[0] = 0;
-    motion_on_write(&s, addr, n);
+    command_written(&s, &w);
     return true;
 }
 
@@ -159,9 +197,8 @@ static void a_stop_is_never_refused_and_drops_the_torque(void **state)
     assert_true(write16(REG_MOVING_SPEED, 0));
     assert_string_equal(calls, "coast;");
     struct custom_move cm = {.speed = 0x8000};
-    assert_int_equal(motion_custom_allowed(&s, &cm), 0);
     calls[0] = 0;
-    motion_custom_move(&s, &cm);
+    command_custom_move(&s, &cm);
     assert_string_equal(calls, "coast;");
     assert_false(write16(REG_MOVING_SPEED, 5)); /* anything else is refused unloaded */
 }
@@ -214,62 +251,76 @@ static void homing_brake_sleep_and_resolution(void **state)
     assert_string_equal(calls, "home;");
     assert_true(write16(REG_HOMING, 0)); /* 0 aborts a running homing */
     assert_string_equal(calls, "hold;");
+    assert_true(write16(REG_HOMING, 0)); /* and does nothing otherwise */
+    assert_string_equal(calls, "");
     assert_true(write16(REG_BRAKE, 1));
     assert_string_equal(calls, "brake;");
     assert_true(write16(REG_SLEEP, 1));
     assert_string_equal(calls, "coast;");
+    s.motion.mode = MOTION_MOVE;
     assert_true(write16(REG_RESOLUTION, 2));
-    assert_string_equal(calls, "hold;"); /* §5: a resolution change stops any motion */
+    /* §5: a resolution change stops any motion, and the rescaled limits apply */
+    assert_string_equal(calls, "hold;limits changed;");
+    assert_int_equal(regs_get(&s.regs, REG_CCW_LIMIT), 1800); /* 360 deg in 0.2 deg */
     fake.unloaded = true;
     assert_false(write16(REG_HOMING, 1));
 }
 
-static void mirroring_the_motor_forgets_the_reference(void **state)
+static void the_zero_side_mirrors_the_motor(void **state)
 {
     (void)state;
     fresh(&board_arm);
-    s.motion.ctl.sign = 1;
-    s.motion.ctl.counts = 500;
-    s.motion.zero = 100;
-    s.motion.referenced = 1;
     assert_true(write16(REG_HOMING_ZERO_SIDE, 2));
-    assert_string_equal(calls, "coast;");
-    assert_int_equal(s.motion.ctl.sign, -1);
-    assert_true(s.motion.ctl.counts == -500 && s.motion.zero == -100);
-    assert_int_equal(s.motion.referenced, 0);
+    assert_string_equal(calls, "mirror -1;");
+    assert_true(write16(REG_HOMING_ZERO_SIDE, 1));
+    assert_string_equal(calls, "mirror 1;");
 }
 
-static void clearing_an_unload_only_once_its_cause_is_gone(void **state)
+static void new_limits_reach_what_runs(void **state)
 {
     (void)state;
-    fresh(&board_arm);
-    fake.unloaded = true;
-    fake.may_clear = false;
-    assert_false(write16(REG_CLEAR_UNLOAD, 1));
-    fake.may_clear = true;
-    assert_true(write16(REG_CLEAR_UNLOAD, 1));
-    assert_string_equal(calls, "clear;"); /* and nothing moves */
+    fresh(&board_foot);
+    assert_true(write16(REG_CCW_LIMIT, 200));
+    assert_string_equal(calls, "limits changed;");
+    assert_true(write16(REG_CW_LIMIT, 20));
+    assert_string_equal(calls, "limits changed;");
+    fake.unloaded = true; /* even unloaded: the limits are settings, not motion */
+    assert_true(write16(REG_CW_LIMIT, 30));
+    assert_string_equal(calls, "limits changed;");
+    s.motion.mode = MOTION_HOME; /* homing measures them */
+    assert_false(write16(REG_CW_LIMIT, 40));
 }
 
-static void custom_move_refused_when_it_may_not_start(void **state)
+static void a_trajectory_written_while_one_runs_stops_it(void **state)
+{
+    (void)state;
+    fresh(&board_foot);
+    command_traj_written(&s);
+    assert_string_equal(calls, ""); /* nothing runs: stored only */
+    s.motion.mode = MOTION_TRAJ;
+    command_traj_written(&s);
+    assert_string_equal(calls, "stop;"); /* ramped down, never spliced */
+}
+
+static void custom_move_moves_only_when_it_may_start(void **state)
 {
     (void)state;
     fresh(&board_arm);
     struct custom_move cm = {.absolute = 1, .target = 900, .speed = 50}; /* past CCW 360 */
     fake.may_start = false;
-    assert_int_equal(motion_custom_allowed(&s, &cm), ERR_INSTRUCTION);
+    assert_false(command_may_move(&s));
     fake.may_start = true;
     fake.referenced = false;
-    assert_int_equal(motion_custom_allowed(&s, &cm), ERR_INSTRUCTION);
+    assert_false(command_may_move(&s));
     fake.referenced = true;
-    assert_int_equal(motion_custom_allowed(&s, &cm), 0);
-    motion_custom_move(&s, &cm);
+    assert_true(command_may_move(&s));
+    command_custom_move(&s, &cm);
     assert_string_equal(calls, "move 360 50;"); /* clamped to the CCW limit */
     /* relative, backwards, clamped to the CW limit */
     calls[0] = 0;
     fake.present = 100;
     struct custom_move back = {.absolute = 0, .target = 300, .speed = 0x8000 | 50};
-    motion_custom_move(&s, &back);
+    command_custom_move(&s, &back);
     assert_string_equal(calls, "move 0 50;");
 }
 
@@ -278,16 +329,63 @@ static void start_end_sets_the_zero_and_the_end(void **state)
     (void)state;
     fresh(&board_foot);
     s.motion.ctl.counts = 4321;
-    assert_int_equal(motion_start_end(&s, 1), 0);
+    assert_int_equal(command_start_end(&s, 1), 0);
+    assert_string_equal(calls, "zero;limits changed;");
     assert_true(s.motion.zero == 4321);
     assert_int_equal(regs_get(&s.regs, REG_CW_LIMIT), 0);
     fake.present = 700;
-    assert_int_equal(motion_start_end(&s, 2), 0);
+    assert_int_equal(command_start_end(&s, 2), 0);
     assert_int_equal(regs_get(&s.regs, REG_CCW_LIMIT), 700);
     regs_set(&s.regs, REG_CW_LIMIT, 100);
     fake.present = 50; /* below the CW limit: refused, nothing changes */
-    assert_int_equal(motion_start_end(&s, 2), ERR_INSTRUCTION);
+    assert_int_equal(command_start_end(&s, 2), ERR_INSTRUCTION);
     assert_int_equal(regs_get(&s.regs, REG_CCW_LIMIT), 700);
+}
+
+/* Issue 25: END with the shaft still at the start point (START/END 1, then a move that
+ * was refused or stopped) set both limits to 0 and made the joint a wheel, answered ERR 0.
+ * Speed mode is entered only by writing 0 to both limits. */
+static void end_at_the_start_point_is_refused(void **state)
+{
+    (void)state;
+    fresh(&board_foot);
+    assert_int_equal(command_start_end(&s, 1), 0);
+    fake.present = 0;
+    calls[0] = 0;
+    assert_int_equal(command_start_end(&s, 2), ERR_INSTRUCTION);
+    assert_string_equal(calls, "");
+    assert_int_equal(regs_get(&s.regs, REG_CW_LIMIT), 0);
+    assert_int_equal(regs_get(&s.regs, REG_CCW_LIMIT), 360); /* position mode still */
+}
+
+/* §5: changing register 13 rescales the limits and the goal to the same angles (rounded),
+ * drops the stored trajectory, and stops and holds. */
+static void resolution_change_rescales_and_clears_trajectory(void **state)
+{
+    (void)state;
+    fresh(&board_foot);
+    regs_set(&s.regs, REG_CW_LIMIT, 90);
+    regs_set(&s.regs, REG_GOAL_POSITION, 180);
+    s.traj.count = 1;
+    s.motion.mode = MOTION_HOLD; /* at rest: the goal keeps meaning the same angle */
+    assert_true(write16(REG_RESOLUTION, 1)); /* 1 degree -> 0.1 degree per unit */
+    assert_string_equal(calls, "limits changed;");
+    assert_int_equal(regs_get(&s.regs, REG_CW_LIMIT), 900);
+    assert_int_equal(regs_get(&s.regs, REG_CCW_LIMIT), 3600);
+    assert_int_equal(regs_get(&s.regs, REG_GOAL_POSITION), 1800);
+    assert_int_equal(s.traj.count, 0);
+    assert_true(write16(REG_RESOLUTION, 3));
+    assert_int_equal(regs_get(&s.regs, REG_CW_LIMIT), 300);
+    assert_int_equal(regs_get(&s.regs, REG_CCW_LIMIT), 1200);
+    assert_int_equal(regs_get(&s.regs, REG_GOAL_POSITION), 600);
+    assert_true(write16(REG_RESOLUTION, 7)); /* rounded: 128.6, 514.3, 257.1 */
+    assert_int_equal(regs_get(&s.regs, REG_CW_LIMIT), 129);
+    assert_int_equal(regs_get(&s.regs, REG_CCW_LIMIT), 514);
+    assert_int_equal(regs_get(&s.regs, REG_GOAL_POSITION), 257);
+    s.motion.mode = MOTION_MOVE;
+    assert_true(write16(REG_RESOLUTION, 7)); /* the same value changes nothing (§5) */
+    assert_string_equal(calls, "");
+    assert_int_equal(regs_get(&s.regs, REG_CW_LIMIT), 129);
 }
 
 int main(void)
@@ -298,10 +396,13 @@ int main(void)
         cmocka_unit_test(a_goal_is_refused_unloaded_or_unreferenced),
         cmocka_unit_test(speed_turns_in_speed_mode_and_sets_the_cruise_in_a_move),
         cmocka_unit_test(homing_brake_sleep_and_resolution),
-        cmocka_unit_test(mirroring_the_motor_forgets_the_reference),
-        cmocka_unit_test(clearing_an_unload_only_once_its_cause_is_gone),
-        cmocka_unit_test(custom_move_refused_when_it_may_not_start),
+        cmocka_unit_test(the_zero_side_mirrors_the_motor),
+        cmocka_unit_test(new_limits_reach_what_runs),
+        cmocka_unit_test(a_trajectory_written_while_one_runs_stops_it),
+        cmocka_unit_test(custom_move_moves_only_when_it_may_start),
         cmocka_unit_test(start_end_sets_the_zero_and_the_end),
+        cmocka_unit_test(end_at_the_start_point_is_refused),
+        cmocka_unit_test(resolution_change_rescales_and_clears_trajectory),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

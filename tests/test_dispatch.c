@@ -2,9 +2,9 @@
  * the host HAL, driven through its UART interrupt and main loop (and, where a hand-built
  * frame says it better, through dispatch_frame() directly).
  *
- * The motion layer is replaced by a small hand-written fake (below) that behaves like
- * motion_none.c but accepts motion commands and records what the dispatcher decoded, so
- * that START/END and CUSTOM decoding can be checked. The test links the bus side of the
+ * The motion layer (command.h, motion.h) and safety are replaced by a small hand-written
+ * fake (below) whose motor never moves, which accepts motion commands and records what the
+ * dispatcher decoded, so that START/END and CUSTOM decoding can be checked. The test links the bus side of the
  * core only (tests/CMakeLists.txt), so the fake is the one motion layer in the program. */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -14,6 +14,7 @@
 
 #include <cmocka.h>
 
+#include "command.h"
 #include "dispatch.h"
 #include "hal_host.h"
 #include "motion.h"
@@ -56,33 +57,31 @@ void motion_report(struct servo *s)
     (void)s;
 }
 
-int32_t motion_position(const struct servo *s)
-{
-    return regs_present_position(&s->regs); /* this fake's motor never moves */
-}
-
 void motion_init(struct servo *s)
 {
     regs_set(&s->regs, REG_GOAL_POSITION, regs_present_position(&s->regs));
 }
 
-bool motion_write_allowed(const struct servo *s, uint8_t addr, const uint8_t *data, uint8_t n)
+uint8_t command_write_check(const struct servo *s, const struct reg_write *w)
 {
     (void)s;
-    (void)addr;
-    (void)data;
-    (void)n;
-    return true;
+    (void)w;
+    return 0;
 }
 
-void motion_on_write(struct servo *s, uint8_t addr, uint8_t n)
+void command_written(struct servo *s, const struct reg_write *w)
 {
     (void)s;
-    (void)addr;
-    (void)n;
+    (void)w;
 }
 
-uint8_t motion_start_end(struct servo *s, uint8_t what)
+bool command_may_move(const struct servo *s)
+{
+    (void)s;
+    return fake.result == 0u;
+}
+
+uint8_t command_start_end(struct servo *s, uint8_t what)
 {
     (void)s;
     fake.start_end_calls++;
@@ -90,39 +89,46 @@ uint8_t motion_start_end(struct servo *s, uint8_t what)
     return fake.result;
 }
 
-uint8_t motion_traj_action(struct servo *s)
+void command_traj_action(struct servo *s)
 {
     (void)s;
     fake.traj_action_calls++;
-    return fake.result;
 }
 
-uint8_t motion_custom_allowed(const struct servo *s, const struct custom_move *m)
+void command_traj_written(struct servo *s)
 {
     (void)s;
-    (void)m;
-    return fake.result;
 }
 
-void motion_custom_move(struct servo *s, const struct custom_move *m)
+void command_custom_move(struct servo *s, const struct custom_move *m)
 {
     (void)s;
     fake.custom_calls++;
     fake.custom = *m;
 }
 
-void motion_reset(struct servo *s)
+void command_reset(struct servo *s)
 {
     (void)s;
     fake.reset_calls++;
 }
 
-void motion_torque_off(struct servo *s)
+void command_torque_off(struct servo *s)
 {
     (void)s;
     fake.torque_off_calls++;
 }
 
+bool safety_may_clear(const struct safety *sf)
+{
+    (void)sf;
+    return true;
+}
+
+void safety_clear(struct safety *sf)
+{
+    (void)sf;
+}
 
 /* ---- harness -------------------------------------------------------------------- */
 
@@ -929,36 +935,6 @@ static void custom_decoding(void **state)
 
 /* ---- resolution (§5) ------------------------------------------------------------- */
 
-static void resolution_change_rescales_and_clears_trajectory(void **state)
-{
-    (void)state;
-    set_reg(REG_CW_LIMIT, 90);
-    set_reg(REG_GOAL_POSITION, 180);
-    const uint8_t traj[] = {1, 100, 0, 10};
-    assert_status(cmd(1, INS_TRAJ_WRITE, traj, sizeof traj), 1, 0x00);
-    assert_int_equal(s.traj.count, 1);
-
-    set_reg(REG_RESOLUTION, 1); /* 1 degree -> 0.1 degree per unit */
-    assert_int_equal(regs_get(&s.regs, REG_CW_LIMIT), 900);
-    assert_int_equal(regs_get(&s.regs, REG_CCW_LIMIT), 3600);
-    assert_int_equal(regs_get(&s.regs, REG_GOAL_POSITION), 1800);
-    assert_int_equal(s.traj.count, 0);
-
-    set_reg(REG_RESOLUTION, 3);
-    assert_int_equal(regs_get(&s.regs, REG_CW_LIMIT), 300);
-    assert_int_equal(regs_get(&s.regs, REG_CCW_LIMIT), 1200);
-    assert_int_equal(regs_get(&s.regs, REG_GOAL_POSITION), 600);
-
-    set_reg(REG_RESOLUTION, 7); /* rounded: 128.6, 514.3, 257.1 */
-    assert_int_equal(regs_get(&s.regs, REG_CW_LIMIT), 129);
-    assert_int_equal(regs_get(&s.regs, REG_CCW_LIMIT), 514);
-    assert_int_equal(regs_get(&s.regs, REG_GOAL_POSITION), 257);
-    struct answer a = read_cmd(1, REG_CW_LIMIT, 4);
-    assert_int_equal(a.b[5], 129);
-    assert_int_equal(a.b[7], 514 & 0xFF);
-    assert_int_equal(a.b[8], 514 >> 8);
-}
-
 static void refused_resolution_changes_nothing(void **state)
 {
     (void)state;
@@ -1010,7 +986,6 @@ int main(void)
         T(trajectory_write_and_action),
         T(custom_bad_subs_and_lengths_refused),
         T(custom_decoding),
-        T(resolution_change_rescales_and_clears_trajectory),
         T(refused_resolution_changes_nothing),
         T(sync_write_slice_of_255_refused), /* last: may take the program down */
     };

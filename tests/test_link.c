@@ -69,6 +69,35 @@ static void assert_sent(uint32_t first, const uint8_t *want, size_t n, uint32_t 
 static const uint8_t PING1_ANSWER[] = {0xD5, 0x5D, 0x01, 0x03, 0x01, 0x00, 0x05};
 static const uint8_t OK1[] = {0xD5, 0x5D, 0x01, 0x02, 0x00, 0x03};
 
+/* ---- the answer buffer ------------------------------------------------------------ */
+
+/* Issue 25: PROTO_STATUS_MAX was written by hand (5 + 50 + 1); a register added at 50 or
+ * above would have made a whole-table READ, which the SDK sends, overflow link.tx into the
+ * next member of struct servo (ASan cannot see inside one struct). It is derived from the
+ * table now: the READ the SDK sends fills the buffer exactly, byte for byte. */
+static void a_whole_table_read_fills_the_answer_buffer_exactly(void **state)
+{
+    (void)state;
+    power_up(&board_arm);
+    const uint8_t rd[2] = {0, REGS_SIZE};
+    uint32_t first = hal.log_len;
+    host_cmd(1, INS_READ, rd, 2, board_arm.default_baud);
+    run_until(hal.now_us + 200000u);
+    assert_int_equal(s.link.tx_len, sizeof s.link.tx);
+    assert_int_equal(hal.log_len - first, sizeof s.link.tx);
+    uint8_t want[PROTO_STATUS_MAX];
+    uint8_t table[REGS_SIZE];
+    regs_read(&s.regs, 0, REGS_SIZE, table);
+    proto_build_packet(want, 1, 0, table, REGS_SIZE);
+    assert_sent(first, want, sizeof want, board_arm.default_baud);
+    const uint8_t past[2] = {1, REGS_SIZE}; /* one byte more: refused, nothing overflows */
+    first = hal.log_len;
+    host_cmd(1, INS_READ, past, 2, board_arm.default_baud);
+    run_until(hal.now_us + 200000u);
+    const uint8_t err[] = {0xD5, 0x5D, 0x01, 0x02, 0x20, 0x23};
+    assert_sent(first, err, sizeof err, board_arm.default_baud);
+}
+
 /* ---- pure functions -------------------------------------------------------------- */
 
 static void baud_table(void **state)
@@ -292,6 +321,71 @@ static void unanswered_change_applies_at_once(void **state)
     assert_int_equal(hal.sends, 0);
 }
 
+/* ---- a fall-back clock (issue 30) -------------------------------------------------- */
+
+/* Which baud codes a 16x-oversampling UART on each STM32 clock makes within 2 %, as
+ * hal/stm32f1/README.md states them: HSE-PLL 72 MHz and HSI-PLL 64 MHz all of them,
+ * plain HSI 8 MHz codes 0-5 (460800 is 2.1 % off; 896000 and up exceed its 500 kBd). */
+static void fall_back_clocks_reach_the_codes_the_readme_says(void **state)
+{
+    (void)state;
+    static const struct {
+        uint32_t hz;
+        uint16_t reached; /* bit c: code c */
+    } clocks[] = {{72000000u, 0x07FF}, {64000000u, 0x07FF}, {8000000u, 0x003F},
+                  {0, 0x07FF}};
+    for (size_t c = 0; c < sizeof clocks / sizeof clocks[0]; c++) {
+        power_up(&board_foot);
+        hal.uart_clock_hz = clocks[c].hz;
+        for (uint8_t code = 0; code <= 10; code++) {
+            uint8_t write[] = {code};
+            bool ok = link_baud_reachable(&s, REG_BAUD_RATE, write, 1);
+            assert_int_equal(ok, (clocks[c].reached >> code) & 1u);
+        }
+        /* A write that leaves register 4 alone is never refused for it; one that spans
+         * it is judged by its code. */
+        const uint8_t id_only[] = {7};
+        assert_true(link_baud_reachable(&s, REG_ID, id_only, 1));
+        const uint8_t id_baud_delay[] = {7, 10, 16};
+        assert_int_equal(link_baud_reachable(&s, REG_ID, id_baud_delay, 3),
+                         (clocks[c].reached >> 10) & 1u);
+        assert_true(link_baud_reachable(&s, REG_RETURN_DELAY, id_baud_delay, 1));
+    }
+}
+
+/* On the 8 MHz fall-back a WRITE of a code it cannot make is an instruction error and
+ * changes nothing; a code it makes is taken, and the servo then talks at it. */
+static void a_code_the_clock_cannot_make_is_refused(void **state)
+{
+    (void)state;
+    power_up(&board_foot);
+    hal.uart_clock_hz = 8000000u;
+    uint8_t refused[8];
+    uint16_t n = proto_build_packet(refused, 0x01, ERR_INSTRUCTION, 0, 0);
+    for (uint8_t code = 6; code <= 10; code++) {
+        uint32_t first = hal.log_len;
+        const uint8_t w[] = {REG_BAUD_RATE, code};
+        uint32_t end = host_cmd(0x01, INS_WRITE, w, 2, 9600);
+        run_until(end + 20000u);
+        assert_sent(first, refused, n, 9600);
+        assert_int_equal(s.regs.mem[REG_BAUD_RATE], 0);
+        assert_int_equal(hal.baud, 9600);
+    }
+    /* REG WRITE holds it, ACTION refuses it. */
+    uint32_t first = hal.log_len;
+    const uint8_t held[] = {REG_BAUD_RATE, 8};
+    run_until(host_cmd(0x01, INS_REG_WRITE, held, 2, 9600) + 20000u);
+    run_until(host_cmd(0x01, INS_ACTION, 0, 0, 9600) + 20000u);
+    assert_sent(first + 6u, refused, n, 9600);
+    assert_int_equal(s.regs.mem[REG_BAUD_RATE], 0);
+    /* 256000 is 0.8 % off at 8 MHz: taken. */
+    first = hal.log_len;
+    const uint8_t baud5[] = {REG_BAUD_RATE, 5};
+    run_until(host_cmd(0x01, INS_WRITE, baud5, 2, 9600) + 20000u);
+    assert_sent(first, OK1, sizeof OK1, 9600);
+    assert_int_equal(hal.baud, 256000);
+}
+
 /* ---- broadcast PING (§4.1) ---------------------------------------------------------- */
 
 static void broadcast_ping_slot_per_id(void **state)
@@ -338,9 +432,126 @@ static void broadcast_ping_discovers_bus_without_collisions(void **state)
     }
 }
 
+/* A foot at ID 200 turning in speed mode at 9600 baud, heartbeat on. */
+static struct node *turning_at_200(void)
+{
+    vbus_init(&bus);
+    bus.step_us = 100;
+    vbus_add(&bus, &board_foot, 200);
+    struct node *n = &bus.node[0];
+    uint8_t pkt[16];
+    const uint8_t wheel[] = {REG_CW_LIMIT, 0, 0, 0, 0}, speed[] = {REG_MOVING_SPEED, 120, 0};
+    vbus_host_send(&bus, pkt, proto_build_packet(pkt, 200, INS_WRITE, wheel, sizeof wheel));
+    vbus_run_until(&bus, bus.now_us + 30000u);
+    vbus_host_send(&bus, pkt, proto_build_packet(pkt, 200, INS_WRITE, speed, sizeof speed));
+    vbus_run_until(&bus, bus.now_us + 300000u);
+    assert_true(n->hal.motor.enabled && n->hal.motor.duty > 0); /* premise: turning */
+    while (vbus_host_pending(&bus))
+        (void)vbus_host_next(&bus);
+    return n;
+}
+
+/* Issue 25: a servo waiting to answer a broadcast PING in its slot (ID x slot: 1.9 s for
+ * ID 200 at 9600 baud) executed nothing meanwhile: a stop sent 0.2 s after the PING ran
+ * 1.7 s late. Rule 3: speed 0 stops at once, whatever answer waits. A broadcast stop (no
+ * answer of its own) leaves the PING's answer to come in its slot; a stop addressed to
+ * the servo is answered, and that answer replaces the waiting one (docs/decisions.md). */
+static void a_stop_during_a_broadcast_ping_slot_acts_at_once(void **state)
+{
+    (void)state;
+    uint8_t pkt[16];
+    const uint8_t stop[] = {REG_MOVING_SPEED, 0, 0};
+    for (int addressed = 0; addressed < 2; addressed++) {
+        struct node *n = turning_at_200();
+        const uint8_t ping[] = {0xD5, 0x5D, 0xFE, 0x02, 0x01, 0x01};
+        vbus_host_send(&bus, ping, sizeof ping);
+        uint32_t slot = bus.now_us + 8000u + 200u * link_bytes_us(9600, 9);
+        vbus_run_until(&bus, bus.now_us + 200000u);
+        uint8_t id = addressed ? 200u : PROTO_ID_BROADCAST;
+        vbus_host_send(&bus, pkt, proto_build_packet(pkt, id, INS_WRITE, stop, sizeof stop));
+        vbus_run_until(&bus, bus.now_us + 1000u); /* one control tick */
+        assert_false(n->hal.motor.enabled);
+        assert_int_equal(n->hal.motor.duty, 0);
+        vbus_run_until(&bus, slot + 20000u);
+        uint8_t got[8];
+        uint32_t len = 0;
+        while (vbus_host_pending(&bus) && len < sizeof got)
+            got[len++] = vbus_host_next(&bus)->byte;
+        const uint8_t ping_ok[] = {0xD5, 0x5D, 200, 0x03, 0x01, 0x00, 0xCC};
+        const uint8_t write_ok[] = {0xD5, 0x5D, 200, 0x02, 0x00, 0xCA};
+        if (addressed) { /* its own answer, after the return delay; the slot's replaced */
+            assert_int_equal(len, sizeof write_ok);
+            assert_memory_equal(got, write_ok, sizeof write_ok);
+        } else { /* the PING's answer in its slot */
+            assert_int_equal(len, sizeof ping_ok);
+            assert_memory_equal(got, ping_ok, sizeof ping_ok);
+        }
+    }
+}
+
+/* ... and the READs a host sends meanwhile are executed: they feed the heartbeat, so a
+ * moving servo the host keeps talking to is not stopped by it (it was: 1.9 s of frames
+ * queued behind the slot, the heartbeat expired at 0.5 s). */
+static void reads_during_a_broadcast_ping_slot_feed_the_heartbeat(void **state)
+{
+    (void)state;
+    struct node *n = turning_at_200();
+    const uint8_t ping[] = {0xD5, 0x5D, 0xFE, 0x02, 0x01, 0x01};
+    vbus_host_send(&bus, ping, sizeof ping);
+    uint8_t pkt[16];
+    const uint8_t rd[] = {REG_MOVING, 1};
+    for (int i = 0; i < 15; i++) {
+        vbus_run_until(&bus, bus.now_us + 100000u);
+        vbus_host_send(&bus, pkt, proto_build_packet(pkt, 200, INS_READ, rd, sizeof rd));
+    }
+    vbus_run_until(&bus, bus.now_us + 50000u);
+    assert_true(n->hal.motor.enabled && n->hal.motor.duty > 0); /* still turning */
+    uint32_t answers = 0;
+    while (vbus_host_pending(&bus))
+        answers += vbus_host_next(&bus)->byte == 0xD5u;
+    assert_int_equal(answers, 15); /* each READ answered */
+}
+
+/* Two servos at one ID (a factory-fresh bus) answer a READ at their own return delays:
+ * the later one hears the earlier one's answer, a frame to its ID with the ERR byte where
+ * an instruction goes (0x00: none), or garbled. Such a frame got an error answer that
+ * replaced the READ's waiting answer, so the host saw one servo (issue 27's duplicate
+ * detection, test_truth.py, failed). An error answer never replaces one that waits. */
+static void an_error_frame_never_replaces_a_waiting_answer(void **state)
+{
+    (void)state;
+    for (int garbled = 0; garbled < 2; garbled++) {
+        vbus_init(&bus);
+        vbus_add(&bus, &board_foot, 1);
+        uint8_t pkt[16];
+        const uint8_t delay[] = {REG_RETURN_DELAY, 150}; /* 75 ms */
+        vbus_host_send(&bus, pkt, proto_build_packet(pkt, 1, INS_WRITE, delay, sizeof delay));
+        vbus_run_until(&bus, bus.now_us + 100000u);
+        while (vbus_host_pending(&bus))
+            (void)vbus_host_next(&bus);
+        const uint8_t read[] = {REG_RETURN_DELAY, 1};
+        vbus_host_send(&bus, pkt, proto_build_packet(pkt, 1, INS_READ, read, sizeof read));
+        vbus_run_until(&bus, bus.now_us + 10000u);
+        /* the other servo's answer (ERR 0, one byte), 10 ms later */
+        uint8_t other[] = {0xD5, 0x5D, 0x01, 0x03, 0x00, 0x10, 0x14};
+        if (garbled)
+            other[5] ^= 0x40u;
+        vbus_host_send(&bus, other, sizeof other);
+        vbus_run_until(&bus, bus.now_us + 120000u);
+        uint8_t got[8];
+        uint32_t len = 0;
+        while (vbus_host_pending(&bus) && len < sizeof got)
+            got[len++] = vbus_host_next(&bus)->byte;
+        const uint8_t read_ok[] = {0xD5, 0x5D, 0x01, 0x03, 0x00, 150, 0x9A};
+        assert_int_equal(len, sizeof read_ok);
+        assert_memory_equal(got, read_ok, sizeof read_ok);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(a_whole_table_read_fills_the_answer_buffer_exactly),
         cmocka_unit_test(baud_table),
         cmocka_unit_test(bytes_on_the_wire),
         cmocka_unit_test(answer_starts_after_return_delay),
@@ -352,8 +563,13 @@ int main(void)
         cmocka_unit_test(return_delay_change_after_answer_is_out),
         cmocka_unit_test(status_level_change_after_answer_is_out),
         cmocka_unit_test(unanswered_change_applies_at_once),
+        cmocka_unit_test(fall_back_clocks_reach_the_codes_the_readme_says),
+        cmocka_unit_test(a_code_the_clock_cannot_make_is_refused),
         cmocka_unit_test(broadcast_ping_slot_per_id),
         cmocka_unit_test(broadcast_ping_discovers_bus_without_collisions),
+        cmocka_unit_test(a_stop_during_a_broadcast_ping_slot_acts_at_once),
+        cmocka_unit_test(reads_during_a_broadcast_ping_slot_feed_the_heartbeat),
+        cmocka_unit_test(an_error_frame_never_replaces_a_waiting_answer),
     };
     return cmocka_run_group_tests(tests, 0, 0);
 }

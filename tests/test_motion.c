@@ -1,6 +1,6 @@
 /* test_motion.c - the motion layer closed-loop on the host gearmotor (PROTOCOL.md §0,
  * §4.6-§4.8, §5.4, §6; issue 5): one servo on the host HAL, virtual time advanced in
- * 250 us steps through servo_poll(), commands through dispatch_write() (register writes)
+ * 250 us steps through servo_poll(), commands through write_registers() (register writes)
  * and dispatch_frame() (instructions), motor state read from s.motion, s.regs and
  * hal.motor.
  *
@@ -27,6 +27,7 @@
 #include <cmocka.h>
 
 #include "dispatch.h"
+#include "write.h"
 #include "hal_host.h"
 #include "proto.h"
 #include "servo.h"
@@ -80,7 +81,7 @@ static void next_tick(void)
 /* --- commands ------------------------------------------------------------------------ */
 static uint8_t wr(uint8_t addr, const uint8_t *d, uint8_t n)
 {
-    return dispatch_write(&s, addr, d, n);
+    return write_registers(&s, addr, d, n);
 }
 
 static void w8(uint8_t addr, uint8_t v)

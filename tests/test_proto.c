@@ -85,21 +85,22 @@ static void read_answers_are_byte_exact(void **state)
     expect_status(0xFD, ERR_STALL, ff, 2, want_ff, sizeof want_ff);
 }
 
-/* The longest answer, a READ of the whole table, fits PROTO_STATUS_MAX exactly. */
+/* The longest answer, a READ of the whole table, fits PROTO_STATUS_MAX exactly: it is
+ * derived from the table's size, so a register added to the table grows it. */
 static void whole_table_read_fits(void **state)
 {
     (void)state;
-    uint8_t data[50];
-    uint32_t sum = 0x01u + 52u + 0x00u;
-    for (uint8_t i = 0; i < 50; i++) {
+    uint8_t data[REGS_SIZE];
+    uint32_t sum = 0x01u + (REGS_SIZE + 2u) + 0x00u;
+    for (uint8_t i = 0; i < REGS_SIZE; i++) {
         data[i] = (uint8_t)(i * 7u + 3u);
         sum += data[i];
     }
-    uint8_t want[56] = {0xD5, 0x5D, 0x01, 52, 0x00};
-    memcpy(&want[5], data, 50);
-    want[55] = (uint8_t)sum;
-    assert_int_equal(PROTO_STATUS_MAX, 56);
-    expect_status(0x01, 0x00, data, 50, want, sizeof want);
+    uint8_t want[PROTO_STATUS_MAX] = {0xD5, 0x5D, 0x01, REGS_SIZE + 2u, 0x00};
+    memcpy(&want[5], data, REGS_SIZE);
+    want[PROTO_STATUS_MAX - 1u] = (uint8_t)sum;
+    assert_int_equal(PROTO_STATUS_MAX, 6u + REGS_SIZE);
+    expect_status(0x01, 0x00, data, REGS_SIZE, want, sizeof want);
 }
 
 /* The checksum of a built packet is what a receiver recomputes (§3). */
@@ -107,8 +108,8 @@ static void built_checksum_verifies(void **state)
 {
     (void)state;
     uint8_t out[PROTO_STATUS_MAX];
-    for (uint8_t n = 0; n <= 50; n++) {
-        uint8_t data[50];
+    for (uint8_t n = 0; n <= REGS_SIZE; n++) {
+        uint8_t data[REGS_SIZE];
         for (uint8_t i = 0; i < n; i++)
             data[i] = (uint8_t)(0xF0u + i);
         uint16_t len = proto_build_packet(out, 0xAB, 0x5A, data, n);

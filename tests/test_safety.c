@@ -10,6 +10,7 @@
 #include <cmocka.h>
 
 #include "dispatch.h"
+#include "write.h"
 #include "hal_host.h"
 #include "proto.h"
 #include "servo.h"
@@ -45,13 +46,13 @@ static void run_ms(uint32_t ms)
 
 static uint8_t write8(uint8_t addr, uint8_t v)
 {
-    return dispatch_write(&s, addr, &v, 1);
+    return write_registers(&s, addr, &v, 1);
 }
 
 static uint8_t write16(uint8_t addr, uint16_t v)
 {
     uint8_t d[2] = {(uint8_t)v, (uint8_t)(v >> 8)};
-    return dispatch_write(&s, addr, d, 2);
+    return write_registers(&s, addr, d, 2);
 }
 
 /* A valid PING for this servo through the UART interrupt entry point. */

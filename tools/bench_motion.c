@@ -3,13 +3,15 @@
  * motor that follows the drive) so that only firmware instructions are counted.
  *
  *   bench_motion tick N     N control ticks of a long move (motion_poll, one tick each)
- *   bench_motion replan N   N goal changes mid-move (motion_on_write)
+ *   bench_motion replan N   N goal changes mid-move (command_written)
  */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "dispatch.h"
+#include "command.h"
+#include "write.h"
 #include "hal.h"
 #include "motion.h"
 #include "servo.h"
@@ -22,6 +24,7 @@ struct hal {
 
 uint32_t hal_clock_us(struct hal *h) { return h->now; }
 void hal_uart_set_baud(struct hal *h, uint32_t baud) { (void)h; (void)baud; }
+uint32_t hal_uart_baud_achieved(struct hal *h, uint32_t baud) { (void)h; return baud; }
 void hal_uart_send(struct hal *h, const uint8_t *buf, uint16_t len) { (void)h; (void)buf; (void)len; }
 bool hal_uart_tx_busy(struct hal *h) { (void)h; return false; }
 uint32_t hal_irq_save(struct hal *h) { (void)h; return 0; }
@@ -55,7 +58,7 @@ static struct servo s;
 static void write16(uint8_t addr, uint16_t v)
 {
     uint8_t d[2] = {(uint8_t)v, (uint8_t)(v >> 8)};
-    dispatch_write(&s, addr, d, 2);
+    write_registers(&s, addr, d, 2);
 }
 
 int main(int argc, char **argv)
@@ -81,8 +84,12 @@ int main(int argc, char **argv)
         for (long i = 0; i < n; i++) {
             hal.now += MOTION_TICK_US;
             motion_poll(&s, hal.now);
-            s.regs.half[REG_GOAL_POSITION / 2] = (uint16_t)(i & 1 ? 20000 : 29000);
-            motion_on_write(&s, REG_GOAL_POSITION, 2);
+            uint16_t g = (uint16_t)(i & 1 ? 20000 : 29000);
+            const uint8_t d[2] = {(uint8_t)g, (uint8_t)(g >> 8)};
+            const struct reg_write w = {REG_GOAL_POSITION, 2, s.regs.mem[REG_RESOLUTION], d,
+                                       regs_mask(REG_GOAL_POSITION, 2)};
+            regs_set(&s.regs, REG_GOAL_POSITION, g);
+            command_written(&s, &w);
         }
     }
     printf("mode %u, reference at %lld counts\n", s.motion.mode,

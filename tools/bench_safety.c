@@ -4,6 +4,7 @@
 #include <stdio.h>
 
 #include "dispatch.h"
+#include "write.h"
 #include "hal_host.h"
 #include "servo.h"
 
@@ -23,9 +24,9 @@ static void start(void)
     servo_init(&s, &board_foot, &hal);
     s.regs.mem[REG_HEARTBEAT_ENABLE] = 0;
     uint8_t lim[2] = {0, 0}, sp[2] = {100, 0}, cur = 255;
-    dispatch_write(&s, REG_CURRENT_LIMIT, &cur, 1);
-    dispatch_write(&s, REG_CCW_LIMIT, lim, 2);
-    dispatch_write(&s, REG_MOVING_SPEED, sp, 2);
+    write_registers(&s, REG_CURRENT_LIMIT, &cur, 1);
+    write_registers(&s, REG_CCW_LIMIT, lim, 2);
+    write_registers(&s, REG_MOVING_SPEED, sp, 2);
     for (int i = 0; i < 500; i++)
         tick();
 }
@@ -39,7 +40,7 @@ int main(void)
         start();
         if (f == 0) {
             uint8_t cur = 30;
-            dispatch_write(&s, REG_CURRENT_LIMIT, &cur, 1);
+            write_registers(&s, REG_CURRENT_LIMIT, &cur, 1);
             hal.current_extra_ma = 20000;
         } else if (f == 1) {
             hal.supply_mv = 6000;

@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "dispatch.h"
+#include "write.h"
 #include "hal_host.h"
 #include "servo.h"
 
@@ -16,7 +17,7 @@ static struct servo s;
 static void write16(uint8_t addr, uint16_t v)
 {
     uint8_t d[2] = {(uint8_t)v, (uint8_t)(v >> 8)};
-    dispatch_write(&s, addr, d, 2);
+    write_registers(&s, addr, d, 2);
 }
 
 /* Ideal trapezoid (continuous): position and speed at time t of a move of dist degrees. */

@@ -1,13 +1,16 @@
 /* regdoc.c - print the register reference (Markdown) from the control table itself, so
  * the docs can never disagree with the firmware. Usage: regdoc > docs/registers.md
  * With --json it prints the same table as JSON for the host tools
- * (regdoc --json > tools/python/servobus/registers.json; a CTest checks the copy). */
+ * (regdoc --json > tools/python/servobus/registers.json; a CTest checks the copy); with
+ * --protocol-json the instruction table (protocol_json.c). */
 #include <stdio.h>
 #include <string.h>
 
 #include "board.h"
 #include "link.h"
+#include "regdoc.h"
 #include "regs.h"
+#include "write.h"
 
 static const struct board *const boards[VARIANT_COUNT] = {
     &board_base, &board_foot, &board_arm, &board_wrist, &board_finger,
@@ -75,8 +78,7 @@ static const char *unit_key(uint8_t unit)
     }
 }
 
-/* A JSON string literal (the table's texts are ASCII). */
-static void json_str(const char *s)
+void regdoc_json_str(const char *s)
 {
     putchar('"');
     for (; *s; s++) {
@@ -111,9 +113,9 @@ static int print_json(void)
     const char *sep = "";
     for (uint8_t u = REG_UNIT_POSITION; u <= REG_UNIT_RES; u++) {
         printf("%s\n    ", sep);
-        json_str(unit_key(u));
+        regdoc_json_str(unit_key(u));
         printf(": ");
-        json_str(unit_text(u));
+        regdoc_json_str(unit_text(u));
         sep = ",";
     }
     printf("\n  },\n  \"registers\": [\n");
@@ -123,7 +125,7 @@ static int print_json(void)
         if (!d->size)
             continue;
         printf("%s    {\"address\": %u, \"name\": ", sep, a);
-        json_str(d->name);
+        regdoc_json_str(d->name);
         printf(", \"size\": %u, \"access\": \"%s\", \"area\": \"%s\",\n", d->size,
                d->access == REG_ACCESS_R ? "R" : d->access == REG_ACCESS_W ? "W" : "RW",
                d->area == REG_AREA_EE ? "EEPROM" : "RAM");
@@ -148,12 +150,12 @@ static int print_json(void)
         }
         printf("},\n     \"min\": %u, \"max\": %u, \"unit\": ", d->min, d->max);
         if (unit_key(d->unit))
-            json_str(unit_key(d->unit));
+            regdoc_json_str(unit_key(d->unit));
         else
             printf("null");
         printf(", \"signed\": %s,\n     \"doc\": ",
                (d->flags & REG_FLAG_SIGNED) ? "true" : "false");
-        json_str(d->doc);
+        regdoc_json_str(d->doc);
         printf("}");
         sep = ",\n";
     }
@@ -161,12 +163,57 @@ static int print_json(void)
     return 0;
 }
 
+/* Who acts on a write of register a (write.h's hooks), and the store for EEPROM. */
+static void print_owners(uint8_t a)
+{
+    const char *sep = "";
+    for (uint8_t h = 0; h < write_hook_count; h++) {
+        const struct write_hook *k = &write_hooks[h];
+        if ((k->acts_on >> a) & 1u)
+            printf("%s%s at the write", sep, k->owner);
+        else if ((k->reads >> a) & 1u)
+            printf("%s%s as it works", sep, k->owner);
+        else
+            continue;
+        sep = "; ";
+    }
+    if (regs_table[a].area == REG_AREA_EE && (regs_table[a].access & REG_ACCESS_W))
+        printf("%sstore: kept in flash", sep);
+}
+
+static void print_hooks(void)
+{
+    printf("\n## Who acts on a register\n\n"
+           "From the hooks in `src/write.c` (write.h): a module acts on a register when it is "
+           "written, or reads it as it works. The store keeps every writable EEPROM register in "
+           "flash, whatever changed it ([persistence.md](persistence.md)).\n\n"
+           "| module | acts on a write of | reads as it works | what it does |\n"
+           "|---|---|---|---|\n");
+    for (uint8_t h = 0; h < write_hook_count; h++) {
+        const struct write_hook *k = &write_hooks[h];
+        printf("| %s | ", k->owner);
+        for (int part = 0; part < 2; part++) {
+            uint64_t m = part ? k->reads : k->acts_on;
+            const char *sep = "";
+            for (uint8_t a = 0; a < REGS_SIZE; a++)
+                if (((m >> a) & 1u) && regs_table[a].size) {
+                    printf("%s%u", sep, a);
+                    sep = ", ";
+                }
+            printf("%s | ", *sep ? "" : "-");
+        }
+        printf("%s |\n", k->effect);
+    }
+}
+
 int main(int argc, char **argv)
 {
     if (argc == 2 && strcmp(argv[1], "--json") == 0)
         return print_json();
+    if (argc == 2 && strcmp(argv[1], "--protocol-json") == 0)
+        return regdoc_protocol_json();
     if (argc != 1) {
-        fprintf(stderr, "usage: regdoc [--json]\n");
+        fprintf(stderr, "usage: regdoc [--json | --protocol-json]\n");
         return 2;
     }
     printf("# Register reference\n\n"
@@ -176,8 +223,9 @@ int main(int argc, char **argv)
            "variant reads 0 there and a write to it is an instruction error. Addresses not "
            "listed are reserved (read 0, write refused). Writes must cover whole registers. "
            "Multi-byte values are little-endian.\n\n"
-           "| addr | name | size | access | area | variants | default | range | unit | notes |\n"
-           "|---|---|---|---|---|---|---|---|---|---|\n");
+           "| addr | name | size | access | area | variants | default | range | unit | notes | "
+           "acted on by |\n"
+           "|---|---|---|---|---|---|---|---|---|---|---|\n");
     for (uint8_t a = 0; a < REGS_SIZE; a++) {
         const struct reg_desc *d = &regs_table[a];
         if (!d->size)
@@ -198,7 +246,9 @@ int main(int argc, char **argv)
             printf(" | %u-%u", d->min, d->max);
         else
             printf(" | read-only");
-        printf(" | %s | %s |\n", unit_text(d->unit), d->doc);
+        printf(" | %s | %s | ", unit_text(d->unit), d->doc);
+        print_owners(a);
+        printf(" |\n");
     }
     printf("\n## Baud rates (register 4)\n\n| code | baud |\n|---|---|\n");
     for (uint8_t c = 0; c <= 10; c++) {
@@ -208,5 +258,6 @@ int main(int argc, char **argv)
         else
             printf("| %u | %u |\n", c, (unsigned)link_baud(&board_arm, c));
     }
+    print_hooks();
     return 0;
 }

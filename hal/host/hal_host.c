@@ -7,6 +7,7 @@
 void hal_host_init(struct hal *h)
 {
     memset(h, 0, sizeof *h);
+    h->now_us = HAL_HOST_CLOCK_START;
     h->baud = 9600;
     flash_sim_init(&h->flash);
     motor_sim_init(&h->motor, HAL_HOST_COUNTS_PER_REV);
@@ -25,6 +26,7 @@ void hal_host_reboot(struct hal *h)
     h->motor.enabled = false; /* a reset leaves the bridge off until the core says */
     h->motor.duty = 0;
     h->termination = false;
+    h->stalled = false; /* a reset ends an erase */
     h->power_reset = !h->restart_requested; /* hal_restart() or the watchdog model, or power */
     h->restart_requested = false;
     h->watchdog_started = false;
@@ -67,6 +69,15 @@ void hal_uart_set_baud(struct hal *h, uint32_t baud)
     h->baud_sets++;
 }
 
+/* As the STM32's USART would on uart_clock_hz: the divider rounded, 16 at least. */
+uint32_t hal_uart_baud_achieved(struct hal *h, uint32_t baud)
+{
+    if (h->uart_clock_hz == 0u)
+        return baud;
+    uint32_t div = (h->uart_clock_hz + baud / 2u) / baud;
+    return h->uart_clock_hz / (div < 16u ? 16u : div > 0xFFFFu ? 0xFFFFu : div);
+}
+
 void hal_uart_send(struct hal *h, const uint8_t *buf, uint16_t len)
 {
     uint32_t t0 = h->now_us;
@@ -106,6 +117,10 @@ const uint8_t *hal_flash_page(struct hal *h, uint8_t p)
 
 bool hal_flash_erase(struct hal *h, uint8_t p)
 {
+    if (h->erase_stall_us) {
+        h->stalled = true;
+        h->stall_until_us = h->now_us + h->erase_stall_us;
+    }
     return flash_sim_erase(&h->flash, p);
 }
 

@@ -14,6 +14,12 @@
 #define HAL_HOST_TX_LOG 8192u
 #define HAL_HOST_COUNTS_PER_REV 16384u /* matches every reference board */
 
+/* The virtual clock starts 10 s before the 32-bit microsecond clock wraps (71.6 min), so
+ * every test, servo-sim session and benchmark crosses the wrap early on, as Linux starts
+ * jiffies 5 min before theirs: time arithmetic that is not wrap-safe fails in tests, not
+ * after an hour in a robot. */
+#define HAL_HOST_CLOCK_START (0u - 10000000u)
+
 struct hal_tx_byte {
     uint32_t start_us; /* start bit begins */
     uint32_t end_us;   /* stop bit ends */
@@ -26,9 +32,19 @@ struct hal {
     uint32_t baud;
     uint32_t tx_end_us;
     bool tx_active;
+    bool stalled;       /* a flash erase holds the main loop until stall_until_us */
     int32_t irq_depth;  /* > 0 while the core has interrupts masked */
     uint32_t sends;     /* hal_uart_send() calls */
     uint32_t baud_sets; /* hal_uart_set_baud() calls */
+    uint32_t uart_clock_hz; /* 0: the UART makes every rate exactly; else the clock of a
+                             * 16x-oversampling UART (a fall-back clock, for a test) */
+    /* A page erase stalls the STM32F1's CPU on every flash read for 20-40 ms, so the main
+     * loop (in flash) stops while the receive interrupt (in RAM) goes on. 0 (the default):
+     * an erase takes no time. Else node_step() runs no pass for this long after an
+     * erase; the pass that erased finishes at once (at most a frame better than silicon,
+     * which would finish it after the stall). */
+    uint32_t erase_stall_us;
+    uint32_t stall_until_us;
     uint32_t log_len;   /* bytes logged; the log keeps the last HAL_HOST_TX_LOG */
     struct flash_sim flash; /* the store's flash; survives a simulated reboot */
     struct motor_sim motor; /* the plant: keeps turning across a reboot */
@@ -46,7 +62,7 @@ struct hal {
     struct hal_tx_byte log[HAL_HOST_TX_LOG];
 };
 
-/* Clock at 0, UART idle at 9600, empty log, blank flash. */
+/* Clock at HAL_HOST_CLOCK_START, UART idle at 9600, empty log, blank flash. */
 void hal_host_init(struct hal *h);
 
 /* The i-th byte ever sent (i < log_len, and not older than HAL_HOST_TX_LOG bytes). */

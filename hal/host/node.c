@@ -38,6 +38,9 @@ void node_restart(struct node *n)
 void node_step(struct node *n, uint32_t now_us)
 {
     n->hal.now_us = now_us;
+    if (n->hal.stalled && (int32_t)(now_us - n->hal.stall_until_us) < 0)
+        return; /* a flash erase holds the main loop (hal_host.h, erase_stall_us) */
+    n->hal.stalled = false;
     servo_step(&n->servo);
     if (n->hal.restart_requested) /* hal_restart(): the MCU resets, the bootloader runs */
         node_restart(n);
@@ -49,17 +52,17 @@ bool node_set_id(struct node *n, uint8_t id)
         return false;
     uint8_t pkt[8];
     uint8_t params[2] = {REG_ID, id};
-    uint16_t len = proto_build_packet(pkt, n->servo.link.id, INS_WRITE, params, 2);
+    uint16_t len = proto_build_packet(pkt, link_id(&n->servo.link), INS_WRITE, params, 2);
     for (uint16_t i = 0; i < len; i++)
         servo_rx_isr(&n->servo, pkt[i]);
     uint32_t t0 = n->hal.now_us;
     for (uint32_t t = 0; t <= NODE_SET_ID_US; t += 100u) {
         node_step(n, t0 + t);
-        if (!n->servo.in_loader && n->servo.link.state == LINK_IDLE && n->servo.link.id == id)
+        if (!n->servo.in_loader && link_state(&n->servo.link) == LINK_IDLE && link_id(&n->servo.link) == id)
             break;
     }
     n->log_seen = n->hal.log_len; /* the answer went to nobody */
-    return !n->servo.in_loader && n->servo.link.id == id;
+    return !n->servo.in_loader && link_id(&n->servo.link) == id;
 }
 
 const struct hal_tx_byte *node_tx_peek(const struct node *n)

@@ -41,7 +41,7 @@ void node_power_on(struct node *n);
 void node_restart(struct node *n);
 
 /* One main-loop pass at now_us (not before the node's present time); a hal_restart()
- * made in it restarts the node. */
+ * made in it restarts the node. None while a flash erase stalls the loop (hal_host.h). */
 void node_step(struct node *n, uint32_t now_us);
 
 /* Give the servo the ID it will keep, as a factory configures a fresh one: a WRITE of

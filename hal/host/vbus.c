@@ -7,6 +7,7 @@
 void vbus_init(struct vbus *b)
 {
     memset(b, 0, sizeof *b);
+    b->now_us = HAL_HOST_CLOCK_START;
     b->step_us = 1;
     b->host_baud = 9600;
     b->wire_end_src = VBUS_HOST;
@@ -101,16 +102,21 @@ void vbus_run_until(struct vbus *b, uint32_t t_us)
     }
 }
 
-void vbus_host_send(struct vbus *b, const uint8_t *bytes, uint32_t n)
+uint32_t vbus_host_queue(struct vbus *b, const uint8_t *bytes, uint32_t n)
 {
     if (n == 0)
-        return;
+        return b->now_us;
     uint32_t t0 = b->now_us;
     for (uint32_t i = 0; i < n; i++)
         wire_put(b, VBUS_HOST, bytes[i], hal_host_byte_start(t0, b->host_baud, i),
                  hal_host_byte_end(t0, b->host_baud, i), b->host_baud);
     b->last_host_end_us = hal_host_byte_end(t0, b->host_baud, n - 1u);
-    vbus_run_until(b, b->last_host_end_us);
+    return b->last_host_end_us;
+}
+
+void vbus_host_send(struct vbus *b, const uint8_t *bytes, uint32_t n)
+{
+    vbus_run_until(b, vbus_host_queue(b, bytes, n));
 }
 
 uint32_t vbus_host_pending(const struct vbus *b)

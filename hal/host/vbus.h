@@ -40,7 +40,7 @@ struct vbus {
     struct vbus_byte wire[VBUS_WIRE_MAX];
 };
 
-/* Empty bus at time 0, host at 9600 baud, 1 us main-loop period. */
+/* Empty bus at HAL_HOST_CLOCK_START (10 s before the clock wraps), host at 9600 baud, 1 us main-loop period. */
 void vbus_init(struct vbus *b);
 
 /* Power up a servo of board bd on the bus, its factory image in the application slot.
@@ -56,6 +56,10 @@ void vbus_power_cycle(struct vbus *b, uint8_t i);
 /* The host puts n bytes on the wire back to back, starting now, at host_baud; the bus
  * runs until the last one has ended. */
 void vbus_host_send(struct vbus *b, const uint8_t *bytes, uint32_t n);
+
+/* The same, but the bus does not run: returns when the last byte will have ended (now
+ * if n is 0). A test that steps the bus itself (vbus_run_until) watches it go by. */
+uint32_t vbus_host_queue(struct vbus *b, const uint8_t *bytes, uint32_t n);
 
 /* Run every servo's main loop (and deliver wire bytes) until t_us. */
 void vbus_run_until(struct vbus *b, uint32_t t_us);

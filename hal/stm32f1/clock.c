@@ -15,10 +15,10 @@
 /* QEMU's stm32vldiscovery models no RCC (it reads 0) and clocks the core at 24 MHz. */
 #define NO_RCC_HZ 24000000u
 
-static bool wait_set(reg32 *r, uint32_t mask, uint32_t want, uint32_t spins)
+static bool wait_set(const reg32 *r, uint32_t mask, uint32_t want, uint32_t spins)
 {
     while (spins--)
-        if ((*r & mask) == want)
+        if ((REG_READ(*r) & mask) == want)
             return true;
     return false;
 }
@@ -26,16 +26,16 @@ static bool wait_set(reg32 *r, uint32_t mask, uint32_t want, uint32_t spins)
 /* Start the PLL with the given source and multiplier and switch SYSCLK to it. */
 static bool pll_start(uint32_t cfgr)
 {
-    RCC->cfgr = cfgr; /* SW still HSI: source, multiplier, bus prescalers */
-    RCC->cr |= RCC_CR_PLLON;
+    REG_WRITE(RCC->cfgr, cfgr); /* SW still HSI: source, multiplier, bus prescalers */
+    REG_SET(RCC->cr, RCC_CR_PLLON);
     if (!wait_set(&RCC->cr, RCC_CR_PLLRDY, RCC_CR_PLLRDY, PLL_SPINS)) {
-        RCC->cr &= ~RCC_CR_PLLON;
+        REG_CLEAR(RCC->cr, RCC_CR_PLLON);
         return false;
     }
-    RCC->cfgr = cfgr | RCC_CFGR_SW_PLL;
+    REG_WRITE(RCC->cfgr, cfgr | RCC_CFGR_SW_PLL);
     if (!wait_set(&RCC->cfgr, RCC_CFGR_SWS_MASK, RCC_CFGR_SWS_PLL, PLL_SPINS)) {
-        RCC->cfgr = cfgr; /* back to HSI */
-        RCC->cr &= ~RCC_CR_PLLON;
+        REG_WRITE(RCC->cfgr, cfgr); /* back to HSI */
+        REG_CLEAR(RCC->cr, RCC_CR_PLLON);
         return false;
     }
     return true;
@@ -60,17 +60,17 @@ void clock_init(struct hal *h)
 {
     /* Two wait states and the prefetch buffer before anything runs faster than 24 MHz;
      * harmless at 8 MHz should the PLL never come. */
-    FLASH->acr = FLASH_ACR_PRFTBE | FLASH_ACR_LATENCY(2);
+    REG_WRITE(FLASH->acr, FLASH_ACR_PRFTBE | FLASH_ACR_LATENCY(2));
     uint32_t bus = RCC_CFGR_PPRE1_DIV2; /* APB1 <= 36 MHz; AHB and APB2 undivided */
 
     h->clock_source = CLOCK_HSI;
-    RCC->cr |= RCC_CR_HSEON;
+    REG_SET(RCC->cr, RCC_CR_HSEON);
     if (wait_set(&RCC->cr, RCC_CR_HSERDY, RCC_CR_HSERDY, HSE_SPINS) &&
         pll_start(bus | adcpre(72000000u) | RCC_CFGR_PLLSRC_HSE | RCC_CFGR_PLLMUL(9))) {
         h->clock_source = CLOCK_HSE_PLL;
-        RCC->cr |= RCC_CR_CSSON; /* a crystal that fails later raises NMI: reset */
+        REG_SET(RCC->cr, RCC_CR_CSSON); /* a crystal that fails later raises NMI: reset */
     } else {
-        RCC->cr &= ~RCC_CR_HSEON;
+        REG_CLEAR(RCC->cr, RCC_CR_HSEON);
         if (pll_start(bus | adcpre(64000000u) | RCC_CFGR_PLLMUL(16)))
             h->clock_source = CLOCK_HSI_PLL;
     }
@@ -85,10 +85,10 @@ void clock_init(struct hal *h)
     default:
         /* Plain HSI: no wait state, APB1 undivided. On silicon HSION cannot be off while
          * HSI clocks the core, so a CR that reads 0 means there is no RCC at all. */
-        RCC->cfgr = adcpre(8000000u);
-        FLASH->acr = FLASH_ACR_PRFTBE | FLASH_ACR_LATENCY(0);
+        REG_WRITE(RCC->cfgr, adcpre(8000000u));
+        REG_WRITE(FLASH->acr, FLASH_ACR_PRFTBE | FLASH_ACR_LATENCY(0));
         h->sysclk_hz = 8000000u;
-        if (RCC->cr == 0u) {
+        if (REG_READ(RCC->cr) == 0u) {
             h->clock_source = CLOCK_NO_RCC;
             h->sysclk_hz = NO_RCC_HZ;
         }
@@ -104,11 +104,16 @@ void clock_init(struct hal *h)
 
 void clock_tick_start(struct hal *h)
 {
+#ifndef SERVO_BOOTLOADER
+    /* 10 s before the 32-bit microsecond clock wraps (71.6 min), as on the host: every
+     * run of the application, under QEMU and on silicon, crosses the wrap early on. */
+    h->tick_us = 0u - 10000000u;
+#endif
     h->tick_reload = h->cycles_per_us * 1000u - 1u;
-    SCB->shp[SCB_SHP_SYSTICK] = PRIO_SYSTICK;
-    SYSTICK->rvr = h->tick_reload;
-    SYSTICK->cvr = 0;
-    SYSTICK->csr = SYSTICK_CSR_CLKSOURCE | SYSTICK_CSR_TICKINT | SYSTICK_CSR_ENABLE;
+    REG_WRITE(SCB->shp[SCB_SHP_SYSTICK], PRIO_SYSTICK);
+    REG_WRITE(SYSTICK->rvr, h->tick_reload);
+    REG_WRITE(SYSTICK->cvr, 0);
+    REG_WRITE(SYSTICK->csr, SYSTICK_CSR_CLKSOURCE | SYSTICK_CSR_TICKINT | SYSTICK_CSR_ENABLE);
 }
 
 /* SysTick, 1 kHz, in RAM: the time base keeps running while the flash is busy. */
@@ -124,9 +129,9 @@ RAMFUNC uint32_t hal_clock_us(struct hal *h)
 {
     for (;;) {
         uint32_t base = h->tick_us;
-        uint32_t v = SYSTICK->cvr, cycles;
-        if (SCB->icsr & SCB_ICSR_PENDSTSET) {
-            v = SYSTICK->cvr;
+        uint32_t v = REG_READ(SYSTICK->cvr), cycles;
+        if (REG_READ(SCB->icsr) & SCB_ICSR_PENDSTSET) {
+            v = REG_READ(SYSTICK->cvr);
             /* At 0 the wrap has pended but not yet reloaded: one cycle short of it. */
             cycles = v ? h->tick_reload + 1u + (h->tick_reload - v) : h->tick_reload;
         } else {
@@ -142,13 +147,13 @@ uint32_t hal_irq_save(struct hal *h)
 {
     (void)h;
     uint32_t old;
-    __asm volatile("mrs %0, basepri" : "=r"(old));
-    __asm volatile("msr basepri_max, %0" ::"r"(PRIO_USART1) : "memory");
+    CPU_BASEPRI_GET(old);
+    CPU_BASEPRI_MAX(PRIO_USART1);
     return old;
 }
 
 void hal_irq_restore(struct hal *h, uint32_t state)
 {
     (void)h;
-    __asm volatile("msr basepri, %0" ::"r"(state) : "memory");
+    CPU_BASEPRI_SET(state);
 }

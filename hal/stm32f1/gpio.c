@@ -11,19 +11,19 @@ void gpio_mode(uint8_t pin, uint32_t mode)
     struct gpio_regs *g = GPIO(pin >> 4);
     uint32_t n = pin & 15u, shift = (n & 7u) * 4u;
     reg32 *cr = n < 8u ? &g->crl : &g->crh;
-    *cr = (*cr & ~(0xFu << shift)) | (mode << shift);
+    REG_WRITE(*cr, (REG_READ(*cr) & ~(0xFu << shift)) | (mode << shift));
 }
 
 /* Outputs low first (bridge asleep, driver enable off, terminator out), then driven. */
 void gpio_init(void)
 {
-    RCC->apb2enr |= RCC_APB2ENR_IOPAEN | RCC_APB2ENR_IOPBEN | RCC_APB2ENR_IOPCEN;
-    static const uint8_t outputs[] = {BOARD_PIN_DRIVER_EN, BOARD_PIN_RS485_DE,
-                                      BOARD_PIN_RS485_TERM};
-    for (uint32_t i = 0; i < sizeof outputs; i++) {
-        gpio_write(outputs[i], false);
-        gpio_mode(outputs[i], GPIO_OUT_PP_2MHZ);
-    }
+    REG_SET(RCC->apb2enr, RCC_APB2ENR_IOPAEN | RCC_APB2ENR_IOPBEN | RCC_APB2ENR_IOPCEN);
+    gpio_write(BOARD_PIN_DRIVER_EN, false);
+    gpio_mode(BOARD_PIN_DRIVER_EN, GPIO_OUT_PP_2MHZ);
+    gpio_write(BOARD_PIN_RS485_DE, false);
+    gpio_mode(BOARD_PIN_RS485_DE, GPIO_OUT_PP_2MHZ);
+    gpio_write(BOARD_PIN_RS485_TERM, false);
+    gpio_mode(BOARD_PIN_RS485_TERM, GPIO_OUT_PP_2MHZ);
 #ifndef SERVO_BOOTLOADER /* it never reads the switches: reset's floating input will do */
     if (BOARD_PHOTO) {
         /* Open-collector sensors: pulled toward "interrupted" if a wire comes off. */

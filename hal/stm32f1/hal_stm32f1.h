@@ -86,7 +86,8 @@
 #define PRIO_SYSTICK 0x40u
 #define PRIO_USART1 0x80u
 
-/* ADC1 scan order; DMA keeps adc[] fresh (about every 100 us). */
+/* ADC1 scan order, the current first; TIM3 starts a scan every PWM period and DMA keeps
+ * adc[] fresh (motor.c). */
 enum { ADC_CURRENT, ADC_SUPPLY, ADC_TEMP, ADC_POT, ADC_SLOTS };
 #define ADC_COUNT (BOARD_POSITION_POT ? 4u : 3u)
 
@@ -113,9 +114,11 @@ struct hal {
     const uint8_t *tx_buf;
     uint16_t tx_len, tx_pos;
     uint32_t rx_overruns, rx_errors; /* bytes lost, bytes dropped (framing error) */
+    uint32_t rx_half_bit_us; /* RXNE comes mid stop bit: the byte ends this much later */
     /* Motor and sensors. */
     const struct board *board;
     uint16_t pwm_period;    /* TIM3 counts per PWM period */
+    uint16_t adc_lead;      /* TIM3 counts from the ADC's trigger to the current's hold */
     uint16_t enc_last;      /* TIM2 count at the last read */
     uint32_t enc_count;     /* 32-bit extension of TIM2, wraps */
     uint32_t pot_counts_fs; /* counts at the ADC full scale (potentiometer boards) */
@@ -142,12 +145,12 @@ void gpio_mode(uint8_t pin, uint32_t mode);
 static inline void gpio_write(uint8_t pin, bool high)
 {
     if (pin != PIN_NONE)
-        GPIO(pin >> 4)->bsrr = (1u << (pin & 15u)) << (high ? 0u : 16u);
+        REG_WRITE(GPIO(pin >> 4)->bsrr, (1u << (pin & 15u)) << (high ? 0u : 16u));
 }
 
 static inline bool gpio_read(uint8_t pin)
 {
-    return pin != PIN_NONE && ((GPIO(pin >> 4)->idr >> (pin & 15u)) & 1u);
+    return pin != PIN_NONE && ((REG_READ(GPIO(pin >> 4)->idr) >> (pin & 15u)) & 1u);
 }
 /* gpio.c: every board output in its safe state (bridge off, driver enable low). */
 void gpio_init(void);

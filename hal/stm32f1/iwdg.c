@@ -10,21 +10,21 @@
 void hal_watchdog_start(struct hal *h)
 {
     (void)h;
-    IWDG->kr = IWDG_KEY_START; /* also starts the LSI */
-    IWDG->kr = IWDG_KEY_ACCESS;
-    IWDG->pr = IWDG_PR_DIV32;
-    IWDG->rlr = IWDG_RELOAD;
+    REG_WRITE(IWDG->kr, IWDG_KEY_START); /* also starts the LSI */
+    REG_WRITE(IWDG->kr, IWDG_KEY_ACCESS);
+    REG_WRITE(IWDG->pr, IWDG_PR_DIV32);
+    REG_WRITE(IWDG->rlr, IWDG_RELOAD);
     /* The new values cross into the LSI domain; bounded, an emulator may never clear. */
     uint32_t spins = 100000u;
-    while (spins-- && (IWDG->sr & (IWDG_SR_PVU | IWDG_SR_RVU))) {
+    while (spins-- && (REG_READ(IWDG->sr) & (IWDG_SR_PVU | IWDG_SR_RVU))) {
     }
-    IWDG->kr = IWDG_KEY_RELOAD;
+    REG_WRITE(IWDG->kr, IWDG_KEY_RELOAD);
 }
 
 void hal_watchdog_feed(struct hal *h)
 {
     (void)h;
-    IWDG->kr = IWDG_KEY_RELOAD;
+    REG_WRITE(IWDG->kr, IWDG_KEY_RELOAD);
 }
 
 bool hal_reset_by_power(struct hal *h)
@@ -32,7 +32,7 @@ bool hal_reset_by_power(struct hal *h)
     (void)h;
     /* The watchdog (IWDG or WWDG) or a software reset (a fault, hal_restart) ended the
      * last run; otherwise it was power-on, brown-out or the reset pin. */
-    uint32_t csr = RCC->csr;
-    RCC->csr = csr | RCC_CSR_RMVF; /* clear them: the next boot sees its own cause */
+    uint32_t csr = REG_READ(RCC->csr);
+    REG_WRITE(RCC->csr, csr | RCC_CSR_RMVF); /* clear them: the next boot sees its own cause */
     return (csr & (RCC_CSR_IWDGRSTF | RCC_CSR_WWDGRSTF | RCC_CSR_SFTRSTF)) == 0u;
 }

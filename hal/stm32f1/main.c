@@ -31,6 +31,6 @@ int main(void)
          * emulator's I/O thread gets to deliver received bytes; a spinning guest starves
          * it. On silicon the loop spins: an answer due now must not wait for a tick. */
         if (emulated)
-            __asm volatile("wfi");
+            CPU_WFI();
     }
 }

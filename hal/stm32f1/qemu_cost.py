@@ -4,7 +4,10 @@ with the plant model and RAM flash), in Cortex-M3 instructions counted by single
 it under QEMU through QEMU's gdb stub (`make bench`):
 
   per received byte   the USART1 interrupt of each byte of a READ frame: handler,
-                      servo_rx_isr, hal_clock_us, frame_rx_byte, exception return
+                      servo_rx_isr, hal_clock_us, frame_rx_byte, exception return; and
+                      the receiver's worst cases: a frame full of D5 5D pairs (each a
+                      candidate), and the same with a bad checksum, whose last byte
+                      hands over to one of them
   reply latency       at return delay 0: from the interrupt of the frame's last byte,
                       through the main loop's passes that dispatch the READ and start the
                       answer, to the transmit step (tx_step) that writes its first
@@ -14,7 +17,7 @@ it under QEMU through QEMU's gdb stub (`make bench`):
                       take most
   per control tick    motion_poll when a tick runs: at rest, homing, moving, holding; the
                       plant model's integration (plant_advance, QEMU build only) left out
-  per re-plan         motion_on_write for a new goal during a move, and the tick after it
+  per re-plan         command_written for a new goal during a move, and the tick after it
 
 QEMU's stub steps with interrupts and timers held (its default); an interrupt still
 tail-chains at an exception return (the next byte's, counted as that byte's; a pending
@@ -211,6 +214,27 @@ class Cost:
             if per is not None:
                 per[f] = per.get(f, 0) + 1
 
+    def byte_costs(self, pkt):
+        """Send pkt; the instructions each of its bytes costs in the USART1 interrupt,
+        from the handler's entry to thread mode or to the next byte's entry (the core
+        tail-chains a pending USART1 interrupt at exception return)."""
+        h = self.img.addr["usart1_handler"]
+        self.stub.bp(h)
+        self.drain()
+        self.ser.sendall(pkt)
+        costs = []
+        self.stub.cont()
+        while True:
+            costs.append(1 + self.count(lambda p, s, ipsr: ipsr == 0 or p == h,
+                                        skip=("systick_handler",)))
+            pc, _, _, ipsr = self.stub.regs()
+            if len(costs) == len(pkt):
+                break
+            if pc != h:
+                self.stub.cont()
+        self.stub.bp(h, False)
+        return costs
+
     def call(self, fn, skip=("plant_advance",)):
         """Stopped at fn's entry: its instructions until it returns (the entry counted)."""
         pc, sp, lr, _ = self.stub.regs()
@@ -244,23 +268,7 @@ class Cost:
 
         # Per received byte, then the reply latency after the last.
         read = frame(1, 0x02, 0, 2)
-        h = img.addr["usart1_handler"]
-        stub.bp(h)
-        self.drain()
-        self.ser.sendall(read)
-        costs = []
-        stub.cont()
-        while True:
-            # Each byte from its handler's entry: to thread mode, or to the next byte's
-            # entry (the core tail-chains a pending USART1 interrupt at exception return).
-            costs.append(1 + self.count(lambda p, s, ipsr: ipsr == 0 or p == h,
-                                        skip=("systick_handler",)))
-            pc, _, _, ipsr = stub.regs()
-            if len(costs) == len(read):
-                break
-            if pc != h:
-                stub.cont()
-        stub.bp(h, False)
+        costs = self.byte_costs(read)
         per = {}
         tx = img.addr["tx_step"]
 
@@ -284,6 +292,24 @@ class Cost:
                          lat, lat * CYCLES_PER_INSTRUCTION / MHZ, MHZ, CYCLES_PER_INSTRUCTION))
         lines.append("  most in: " + ", ".join("%s %d" % kv for kv in top))
 
+        # The receiver's worst cases (issue 25): every D5 5D a candidate. A SYNC WRITE to
+        # servos 2-61 whose goals are all 0x5DD5 (60 candidates inside it, each with ID 3,
+        # 4 ..., LEN D5); then the same with a bad checksum, and a PING behind it: its last
+        # byte fails the frame and hands over to the first candidate inside it, whose 180
+        # bytes so far move to a slot of their own.
+        rich = frame(0xFE, 0x83, 30, 2, *[b for i in range(2, 62) for b in (i, 0xD5, 0x5D)])
+        c = self.byte_costs(rich)
+        lines.append("per received byte, SYNC WRITE with 60 D5 5D pairs (%d bytes): average "
+                     "%.0f, largest %d" % (len(c), sum(c) / len(c), max(c)))
+        time.sleep(0.05)
+        broken = rich[:-1] + bytes([rich[-1] ^ 0xFF]) + frame(1, 0x01)
+        c = self.byte_costs(broken)
+        lines.append("per received byte, the same with a bad checksum, then a PING (%d "
+                     "bytes): average %.0f, largest %d (the broken frame's last byte)" % (
+                         len(c), sum(c) / len(c), max(c)))
+        stub.run_for(0.1)
+        self.drain()
+
         # Control ticks: at rest, homing, moving, holding.
         lines.append(self.ticks("at rest", 3, 0.05))
         assert self.ask(frame(1, 0x03, 24, 1)) == OK, "WRITE homing"
@@ -302,14 +328,14 @@ class Cost:
         # Re-plan: a new goal during a move.
         assert self.ask(frame(1, 0x03, 30, 200, 0, 180, 0)) == OK, "WRITE goal 200"
         stub.run_for(0.2)
-        stub.bp(img.addr["motion_on_write"])
+        stub.bp(img.addr["command_written"])
         self.drain()
         self.ser.sendall(frame(1, 0x03, 30, 100, 0, 180, 0))
         stub.cont()
-        stub.bp(img.addr["motion_on_write"], False)
-        n = self.call("motion_on_write")
+        stub.bp(img.addr["command_written"], False)
+        n = self.call("command_written")
         m = self.tick()
-        lines.append("per re-plan: motion_on_write %d instructions, the tick after it %d" % (
+        lines.append("per re-plan: command_written %d instructions, the tick after it %d" % (
             n, m))
         return lines
 

@@ -66,8 +66,9 @@ void reset_handler(void)
     for (uint32_t i = 0; i < VECTORS; i++)
         ram_vectors[i] = (uint32_t)(uintptr_t)(vectors[i] ? vectors[i] : fault_handler);
     ram_vectors[0] = (uint32_t)(uintptr_t)_estack;
-    SCB->vtor = (uint32_t)(uintptr_t)ram_vectors;
-    __asm volatile("dsb\n\tisb" ::: "memory");
+    REG_WRITE(SCB->vtor, (uint32_t)(uintptr_t)ram_vectors);
+    CPU_DSB();
+    CPU_ISB();
     main();
     fault_reset();
 }
@@ -92,9 +93,9 @@ void fault_reset(void)
     __asm volatile("cpsid i" ::: "memory");
     gpio_write(BOARD_PIN_DRIVER_EN, false);
     gpio_write(BOARD_PIN_RS485_DE, false);
-    __asm volatile("dsb" ::: "memory");
-    SCB->aircr = SCB_AIRCR_VECTKEY | SCB_AIRCR_SYSRESETREQ;
-    __asm volatile("dsb" ::: "memory");
+    CPU_DSB();
+    REG_WRITE(SCB->aircr, SCB_AIRCR_VECTKEY | SCB_AIRCR_SYSRESETREQ);
+    CPU_DSB();
     for (;;) {
     }
 }

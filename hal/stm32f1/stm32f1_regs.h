@@ -1,4 +1,4 @@
-/* stm32f1_regs.h - the STM32F103 (and GD32F103) registers this port uses, written from
+/* stm32f1_regs.h - the STM32F103 registers this port uses, written from
  * the reference manual RM0008 and the Cortex-M3 technical reference; nothing else. One
  * struct per peripheral block, laid out as the manual's register map; bit names follow
  * the manual so a reader can check them against it. */
@@ -8,6 +8,32 @@
 #include <stdint.h>
 
 typedef volatile uint32_t reg32;
+
+/* Every read and write of a peripheral register, and of the flash array by the FPEC
+ * code, goes through REG_READ and REG_WRITE; on the MCU they are the plain volatile
+ * accesses. The host build of the drivers defines them first (tests/port/model.h,
+ * included ahead of everything) to hand each access, with its address and width, to
+ * register models that give it RM0008's side effects. The CPU_ instructions below are
+ * overridable the same way. Nothing else changes for the host. */
+#ifndef REG_READ
+#define REG_READ(r) (r)
+#define REG_WRITE(r, v) ((void)((r) = (v)))
+#endif
+#define REG_SET(r, bits) REG_WRITE(r, REG_READ(r) | (bits))    /* read, OR, write */
+#define REG_CLEAR(r, bits) REG_WRITE(r, REG_READ(r) & ~(bits)) /* read, AND NOT, write */
+
+/* Cortex-M3 instructions the drivers use (ARMv7-M ARM). */
+#ifndef CPU_DSB
+#define CPU_DSB() __asm volatile("dsb" ::: "memory")
+#define CPU_ISB() __asm volatile("isb" ::: "memory")
+#define CPU_WFI() __asm volatile("wfi")
+/* BASEPRI: read; raise to at least v (never lowers it); write. */
+#define CPU_BASEPRI_GET(out) __asm volatile("mrs %0, basepri" : "=r"(out))
+#define CPU_BASEPRI_MAX(v) __asm volatile("msr basepri_max, %0" ::"r"(v) : "memory")
+#define CPU_BASEPRI_SET(v) __asm volatile("msr basepri, %0" ::"r"(v) : "memory")
+/* Main stack pointer to sp, then branch to pc, with no stack use between the two. */
+#define CPU_JUMP(sp, pc) __asm volatile("msr msp, %0\n\tbx %1" ::"r"(sp), "r"(pc) : "memory")
+#endif
 
 /* ---- Cortex-M3 system control space (ARMv7-M ARM, Cortex-M3 TRM) ---- */
 struct systick_regs {
@@ -103,7 +129,7 @@ struct flash_regs {
 struct gpio_regs {
     reg32 crl, crh, idr, odr, bsrr, brr, lckr;
 };
-#define GPIO(port) ((struct gpio_regs *)(0x40010800u + 0x400u * (uint32_t)(port)))
+#define GPIO(port) ((struct gpio_regs *)(uintptr_t)(0x40010800u + 0x400u * (uint32_t)(port)))
 /* 4-bit pin configuration: CNF[1:0] MODE[1:0] */
 #define GPIO_IN_ANALOG 0x0u
 #define GPIO_IN_FLOATING 0x4u
@@ -120,12 +146,15 @@ struct tim_regs {
 #define TIM3 ((struct tim_regs *)0x40000400u)
 #define TIM_CR1_CEN (1u << 0)
 #define TIM_CR1_ARPE (1u << 7)
+#define TIM_CR2_MMS_OC4REF (7u << 4)  /* TRGO = OC4REF */
 #define TIM_EGR_UG (1u << 0)
 #define TIM_SMCR_SMS_ENCODER3 3u       /* count on TI1 and TI2 edges */
 #define TIM_CCMR1_OC1_PWM1 (6u << 4)   /* OC1M = 110 */
 #define TIM_CCMR1_OC1PE (1u << 3)
 #define TIM_CCMR1_OC2_PWM1 (6u << 12)  /* OC2M = 110 */
 #define TIM_CCMR1_OC2PE (1u << 11)
+#define TIM_CCMR2_OC4_PWM2 (7u << 12)  /* OC4M = 111: active while CNT >= CCR4 */
+#define TIM_CCMR2_OC4PE (1u << 11)
 #define TIM_CCMR1_CC1S_TI1 (1u << 0)
 #define TIM_CCMR1_CC2S_TI2 (1u << 8)
 #define TIM_CCMR1_IC1F(f) ((uint32_t)(f) << 4)
@@ -145,10 +174,12 @@ struct adc_regs {
 #define ADC_CR2_CAL (1u << 2)
 #define ADC_CR2_RSTCAL (1u << 3)
 #define ADC_CR2_DMA (1u << 8)
+#define ADC_CR2_EXTSEL_TIM3_TRGO (4u << 17) /* regular group: table 69 */
 #define ADC_CR2_EXTSEL_SWSTART (7u << 17)
 #define ADC_CR2_EXTTRIG (1u << 20)
 #define ADC_CR2_SWSTART (1u << 22)
-#define ADC_SMP_239 7u /* 239.5 cycles: high-impedance dividers and sensors */
+#define ADC_SMP_13 2u /* 13.5 cycles: a low-impedance source (the shunt amplifier) */
+#define ADC_SMP_41 4u /* 41.5 cycles: the dividers and the sensor (a few kOhm) */
 
 /* ---- DMA1 (RM0008 §13.4); channel 1 serves ADC1 ---- */
 struct dma_channel_regs {

@@ -17,13 +17,13 @@
 static RAMFUNC void tx_step(struct hal *h)
 {
     for (;;) {
-        uint32_t sr = USART1->sr, cr1 = USART1->cr1;
+        uint32_t sr = REG_READ(USART1->sr), cr1 = REG_READ(USART1->cr1);
         if ((cr1 & USART_CR1_TXEIE) && (sr & USART_SR_TXE)) {
-            USART1->dr = h->tx_buf[h->tx_pos++];
+            REG_WRITE(USART1->dr, h->tx_buf[h->tx_pos++]);
             if (h->tx_pos == h->tx_len)
-                USART1->cr1 = (cr1 & ~USART_CR1_TXEIE) | USART_CR1_TCIE;
+                REG_WRITE(USART1->cr1, (cr1 & ~USART_CR1_TXEIE) | USART_CR1_TCIE);
         } else if ((cr1 & USART_CR1_TCIE) && (sr & USART_SR_TC)) {
-            USART1->cr1 = cr1 & ~USART_CR1_TCIE;
+            REG_WRITE(USART1->cr1, cr1 & ~USART_CR1_TCIE);
             gpio_write(BOARD_PIN_RS485_DE, false);
             h->tx_active = 0;
             return;
@@ -52,7 +52,7 @@ static inline uint32_t rx_clock_us(const struct hal *h)
     uint32_t base, v;
     do {
         base = h->tick_us;
-        v = SYSTICK->cvr;
+        v = REG_READ(SYSTICK->cvr);
     } while (base != h->tick_us);
     return base + (h->tick_reload - v) / h->cycles_per_us;
 }
@@ -60,17 +60,20 @@ static inline uint32_t rx_clock_us(const struct hal *h)
 RAMFUNC void usart1_handler(void)
 {
     struct hal *h = &hal_stm32;
-    uint32_t sr = USART1->sr;
+    uint32_t sr = REG_READ(USART1->sr);
     if (sr & (USART_SR_RXNE | USART_SR_ORE)) {
         /* Reading DR after SR clears RXNE and the error flags (ORE, FE, NE, PE). */
-        uint8_t byte = (uint8_t)USART1->dr;
+        uint8_t byte = (uint8_t)REG_READ(USART1->dr);
         if (sr & USART_SR_ORE)
-            h->rx_overruns++; /* a byte before this one was lost; this one is good */
+            h->rx_overruns++; /* the byte after this one was lost (DR keeps this one) */
         if (sr & USART_SR_FE)
             h->rx_errors++; /* a broken byte (or a break): drop it */
         else if (!h->tx_active) {
+            /* RXNE comes in the middle of the stop bit: the byte ends half a bit later,
+             * and the return delay (§2) counts from there. (The bootloader keeps the
+             * shorter path: its answers come half a bit early.) */
             if (RX_FAST)
-                servo_rx_isr_at(h->servo, byte, rx_clock_us(h));
+                servo_rx_isr_at(h->servo, byte, rx_clock_us(h) + h->rx_half_bit_us);
             else
                 servo_rx_isr(h->servo, byte);
         }
@@ -82,31 +85,46 @@ RAMFUNC void usart1_handler(void)
 void uart_init(struct hal *h)
 {
     (void)h;
-    RCC->apb2enr |= RCC_APB2ENR_USART1EN;
+    REG_SET(RCC->apb2enr, RCC_APB2ENR_USART1EN);
     gpio_write(BOARD_PIN_UART_RX, true); /* pull-up: an idle line reads high */
     gpio_mode(BOARD_PIN_UART_RX, GPIO_IN_PULL);
     gpio_mode(BOARD_PIN_UART_TX, GPIO_AF_PP_50MHZ);
-    USART1->cr2 = 0; /* 1 stop bit */
-    USART1->cr3 = 0;
-    USART1->brr = 0xFFFFu; /* the core sets the baud in servo_init() */
-    USART1->cr1 = USART_CR1_UE | USART_CR1_TE | USART_CR1_RE;
+    REG_WRITE(USART1->cr2, 0); /* 1 stop bit */
+    REG_WRITE(USART1->cr3, 0);
+    REG_WRITE(USART1->brr, 0xFFFFu); /* the core sets the baud in servo_init() */
+    REG_WRITE(USART1->cr1, USART_CR1_UE | USART_CR1_TE | USART_CR1_RE);
 }
 
 void uart_start(struct hal *h, struct servo *s)
 {
     h->servo = s;
-    (void)USART1->sr;
-    (void)USART1->dr; /* anything received before the core was ready */
-    NVIC->ip[IRQ_USART1] = PRIO_USART1;
-    USART1->cr1 |= USART_CR1_RXNEIE;
-    NVIC->iser[IRQ_USART1 / 32u] = 1u << (IRQ_USART1 % 32u);
+    (void)REG_READ(USART1->sr);
+    (void)REG_READ(USART1->dr); /* anything received before the core was ready */
+    REG_WRITE(NVIC->ip[IRQ_USART1], PRIO_USART1);
+    REG_SET(USART1->cr1, USART_CR1_RXNEIE);
+    REG_WRITE(NVIC->iser[IRQ_USART1 / 32u], 1u << (IRQ_USART1 % 32u));
 }
 
-/* USART1 runs from PCLK2 with 16x oversampling: BRR = PCLK2 / baud, rounded. */
-void hal_uart_set_baud(struct hal *h, uint32_t baud)
+/* USART1 runs from PCLK2 with 16x oversampling: BRR = PCLK2 / baud, rounded, and at
+ * least 16 (USARTDIV = BRR / 16 >= 1: the fastest rate is PCLK2 / 16, 500 kBd on the
+ * 8 MHz HSI). */
+static uint32_t brr_for(const struct hal *h, uint32_t baud)
 {
     uint32_t div = (h->pclk2_hz + baud / 2u) / baud;
-    USART1->brr = div < 16u ? 16u : div > 0xFFFFu ? 0xFFFFu : div;
+    return div < 16u ? 16u : div > 0xFFFFu ? 0xFFFFu : div;
+}
+
+void hal_uart_set_baud(struct hal *h, uint32_t baud)
+{
+    REG_WRITE(USART1->brr, brr_for(h, baud));
+    if (RX_FAST)
+        h->rx_half_bit_us = 500000u / baud;
+}
+
+/* The rate BRR gives: PCLK2 / BRR (RM0008 §27.3.4). */
+uint32_t hal_uart_baud_achieved(struct hal *h, uint32_t baud)
+{
+    return h->pclk2_hz / brr_for(h, baud);
 }
 
 void hal_uart_send(struct hal *h, const uint8_t *buf, uint16_t len)
@@ -119,7 +137,7 @@ void hal_uart_send(struct hal *h, const uint8_t *buf, uint16_t len)
     h->tx_pos = 0;
     h->tx_active = 1;
     gpio_write(BOARD_PIN_RS485_DE, true);
-    USART1->cr1 |= USART_CR1_TXEIE; /* the interrupt writes the first byte at once */
+    REG_SET(USART1->cr1, USART_CR1_TXEIE); /* the interrupt writes the first byte at once */
     hal_irq_restore(h, irq);
 }
 

@@ -127,16 +127,15 @@ static bool writes_speed0(const uint8_t *buf, uint16_t len)
 
 /* One main-loop pass, watching which frame it dispatches. The frame may have become
  * ready inside servo_poll() (the receiver's time-out releases frames held behind a broken
- * one), so it is looked up afterwards: the slot the ring's old tail named, untouched by
- * the receive interrupt, which cannot run during the pass here. */
+ * one), so it is looked up afterwards: the one the pass peeked (the receiver's view),
+ * its bytes untouched by the receive interrupt, which cannot run during the pass here. */
 static void poll_once(void)
 {
-    uint8_t tail = servo.rx.ready_tail;
+    uint8_t tail = servo.rx.rec_tail;
     uint8_t my_id = servo.link.id;
     servo_step(&servo);
-    if (servo.rx.ready_tail != tail) { /* dispatched */
-        uint8_t e = servo.rx.ready[tail & (FRAME_READY - 1u)];
-        const struct frame *f = &servo.rx.slot[e];
+    if (servo.rx.rec_tail != tail) { /* dispatched */
+        const struct frame *f = &servo.rx.view;
         const uint8_t *buf = f->buf;
         uint16_t len = f->len;
         bool ok = f->status == FRAME_OK;

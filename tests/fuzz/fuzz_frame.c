@@ -19,7 +19,26 @@
  *   2. no answer to a broadcast other than PING;
  *   3. every answer is well-formed: D5 5D, the servo's own ID (the one in force when the
  *      frame arrived), LEN = the bytes that follow it, the 8-bit sum of ID to the last
- *      parameter as its last byte; and only a frame for that ID or a broadcast gets one. */
+ *      parameter as its last byte; and only a frame for that ID or a broadcast gets one.
+ *
+ * An input whose byte 0 is F0 or more is instead a packet sequence with one damaged
+ * byte (issue 25; byte 0 % 5 still picks the board, byte 1 the ID):
+ *   byte 2     damage: (b % 3) delete, insert, corrupt
+ *   bytes 3-4  where, little-endian, modulo the sequence's bytes (an insertion goes
+ *              before that byte; modulo one more, it may go after the last)
+ *   byte 5     the byte inserted, or written over the old one (rich(): see below)
+ *   then       packets, each from a kind byte k and the bytes it needs: k % 5 is a
+ *              broadcast WRITE, a SYNC WRITE, or to an ID a WRITE, READ or PING; the ID is
+ *              the servo's, 5D or D5 by (k >> 3) % 3; WRITEs and SYNC WRITEs cover the
+ *              moving speed, acceleration and deceleration (RAM: they start nothing at
+ *              rest in position mode); every parameter byte is rich(): D5 or 5D half of
+ *              the time. At most 16 packets.
+ * The host sends broadcasts back to back; after a packet to an ID it waits for the
+ * answer (the §1 time-out, the longest return delay and the answer itself).
+ * Invariants 1-3, and 4: every packet but the damaged one is dispatched, once, in order,
+ * and every one addressed to the servo is answered - unless the receiver counted a frame
+ * it had to drop (overruns: never silently), or dispatched a frame nobody sent, which
+ * passed its 8-bit checksum by chance (1 in 256 for each broken candidate). */
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -38,6 +57,20 @@ const char fuzz_target_name[] = "fuzz_frame";
 static struct hal hal;
 static struct servo servo;
 static uint8_t factory[REGS_SIZE];
+
+/* Invariant 4: the packets of a sequence input, and the frames dispatched meanwhile. */
+#define SEQ_PACKETS 16u
+#define SEQ_BYTES 48u
+static struct {
+    bool on;
+    uint32_t n;                            /* packets */
+    uint8_t b[SEQ_PACKETS][SEQ_BYTES];     /* each, D5 5D to CHK */
+    uint8_t len[SEQ_PACKETS];
+    uint32_t seen;                         /* frames dispatched good */
+    uint8_t got[2u * SEQ_PACKETS][SEQ_BYTES];
+    uint8_t got_len[2u * SEQ_PACKETS];
+    bool got_answer[2u * SEQ_PACKETS];     /* an answer was scheduled for it */
+} seq;
 
 /* What the answer being sent must look like. */
 static struct {
@@ -93,18 +126,31 @@ static void power_up(void)
  * sends. Returns false when nothing happened. */
 static bool poll_once(void)
 {
-    uint8_t tail = servo.rx.ready_tail;
+    uint8_t tail = servo.rx.rec_tail;
+    /* The frame a pass would take (its bytes stay untouched until the next byte). */
+    const struct frame *next = frame_rx_peek(&servo.rx);
+    struct frame taken = next ? *next : (struct frame){0, 0, 0, NULL};
     uint32_t sends = hal.sends, log_from = hal.log_len;
     servo.motion.tick_us = hal.now_us; /* no control tick is due */
     hal.motor.last_us = hal.now_us;    /* the plant does not move */
     servo_poll(&servo);
-    bool dispatched = servo.rx.ready_tail != tail;
+    bool dispatched = servo.rx.rec_tail != tail;
     if (dispatched) {
-        /* The slot the ring's old tail named, untouched until the next byte arrives. */
-        uint8_t e = servo.rx.ready[tail & (FRAME_READY - 1u)];
-        const uint8_t *buf = servo.rx.slot[e].buf; /* a slot's frame or the data block */
-        uint8_t status = servo.rx.slot[e].status;
+        if (!taken.buf) { /* published by this pass's own time-out check, then taken */
+            FUZZ_CHECK(servo.rx.rec_tail == (uint8_t)(tail + 1u));
+            taken = servo.rx.view;
+        }
+        const uint8_t *buf = taken.buf; /* a slot's frame or the data block */
+        uint8_t status = taken.status;
         bool ping = status == FRAME_OK && buf[2] == INS_PING;
+        uint16_t len = taken.len;
+        if (seq.on && status == FRAME_OK && seq.seen < 2u * SEQ_PACKETS) {
+            bool fits = len <= SEQ_BYTES; /* a longer one is nobody's: got_len 0 */
+            seq.got_len[seq.seen] = fits ? (uint8_t)len : 0u;
+            if (fits)
+                memcpy(seq.got[seq.seen], buf, len);
+            seq.got_answer[seq.seen++] = servo.link.state != LINK_IDLE;
+        }
         if (servo.link.state != LINK_IDLE) {
             /* An answer is scheduled, so the settings in force are still those the frame
              * arrived under (new ones apply once the answer is out). */
@@ -130,7 +176,7 @@ static bool work_left(void)
 {
     switch (servo.link.state) {
     case LINK_IDLE:
-        return servo.rx.ready_tail != servo.rx.ready_head;
+        return servo.rx.rec_tail != servo.rx.rec_ready;
     case LINK_WAITING:
         return (int32_t)(hal.now_us - servo.link.due_us) >= 0 && !servo.rx.in_frame;
     default:
@@ -149,21 +195,24 @@ static void poll_idle(void)
 /* Advance virtual time to t, passing the main loop at every event of the servo on the
  * way (an answer due, an answer sent, the receiver's time-out) and, if at_end, at t. The
  * servo does nothing else on its own that a later pass would not do the same way. */
+/* Event at time e: the next one (in *next) if it is still to come and before *next.
+ * One already past was seen by the last pass (a reply due waits for the receiver). */
+static void event_at(uint32_t e, uint32_t *next)
+{
+    if ((int32_t)(e - hal.now_us) > 0 && (int32_t)(e - *next) < 0)
+        *next = e;
+}
+
 static void run_until(uint32_t t, bool at_end)
 {
     for (;;) {
         uint32_t next = t;
-        if (servo.link.state == LINK_WAITING && (int32_t)(servo.link.due_us - next) < 0)
-            next = servo.link.due_us;
-        if (servo.link.state == LINK_SENDING && (int32_t)(hal.tx_end_us - next) < 0)
-            next = hal.tx_end_us;
-        if (servo.rx.in_frame) {
-            uint32_t timeout = servo.rx.last_us + servo.rx.gap_us + servo.rx.byte_us + 1u;
-            if ((int32_t)(timeout - next) < 0)
-                next = timeout;
-        }
-        if ((int32_t)(next - hal.now_us) <= 0)
-            next = t; /* already past: the last pass saw it (a reply waits for rx idle) */
+        if (servo.link.state == LINK_WAITING)
+            event_at(servo.link.due_us, &next);
+        if (servo.link.state == LINK_SENDING)
+            event_at(hal.tx_end_us, &next);
+        if (servo.rx.in_frame)
+            event_at(servo.rx.last_us + servo.rx.gap_us + servo.rx.byte_us + 1u, &next);
         hal.now_us = next;
         if (next != t || at_end)
             poll_idle();
@@ -176,14 +225,173 @@ static void send_byte(uint8_t b)
 {
     uint32_t baud = hal.baud ? hal.baud : 9600u;
     run_until(hal.now_us + (10u * 1000000u + baud - 1u) / baud, false); /* its 10 bits */
-    uint8_t head = servo.rx.ready_head, in_frame = servo.rx.in_frame;
+    uint8_t ready = servo.rx.rec_ready, in_frame = servo.rx.in_frame;
     servo_rx_isr(&servo, b);
     /* A pass finds work only if the byte ended a frame (published, or dropped: the
      * receiver is idle again) or an answer waits; otherwise it is skipped, as it would
      * change nothing a later pass does not do the same way. */
-    if (servo.rx.ready_head != head || servo.rx.in_frame != in_frame ||
+    if (servo.rx.rec_ready != ready || servo.rx.in_frame != in_frame ||
         servo.link.state != LINK_IDLE)
         poll_idle();
+}
+
+/* D5 or 5D half of the time: the bytes that make headers. */
+static uint8_t rich(uint8_t b)
+{
+    return (b & 3u) == 0 ? 0xD5u : (b & 3u) == 1u ? 0x5Du : b;
+}
+
+/* The packets of a sequence input (see the top), into seq. */
+static void seq_build(struct fuzz_reader *r, uint8_t my_id)
+{
+    static const uint8_t addr[3] = {REG_MOVING_SPEED, REG_ACCELERATION, REG_DECELERATION};
+    static const uint8_t size[3] = {2, 1, 1};
+    const uint8_t ids[3] = {my_id, 0x5Du, 0xD5u};
+    seq.n = 0;
+    while (r->left && seq.n < SEQ_PACKETS) {
+        uint8_t k = fuzz_get8(r), kind = k % 5u, p[40], n = 0;
+        uint8_t to = kind < 2u ? PROTO_ID_BROADCAST : ids[(k >> 3) % 3u];
+        uint8_t ins = kind == 1u ? INS_SYNC_WRITE : kind == 3u ? INS_READ
+                      : kind == 4u ? INS_PING : INS_WRITE;
+        uint8_t a = (uint8_t)(fuzz_get8(r) % 3u);
+        if (ins == INS_READ) {
+            p[n++] = REG_MOVING_SPEED;
+            p[n++] = 4;
+        } else if (ins == INS_SYNC_WRITE) {
+            p[n++] = addr[a];
+            p[n++] = size[a];
+            for (uint8_t s = 0, slices = (uint8_t)(1u + fuzz_get8(r) % 4u); s < slices; s++) {
+                p[n++] = ids[fuzz_get8(r) % 3u];
+                for (uint8_t i = 0; i < size[a]; i++)
+                    p[n++] = rich(fuzz_get8(r));
+            }
+        } else if (ins == INS_WRITE) {
+            p[n++] = addr[a];
+            for (uint8_t i = 0; i < size[a]; i++)
+                p[n++] = rich(fuzz_get8(r));
+        }
+        seq.len[seq.n] = (uint8_t)proto_build_packet(seq.b[seq.n], to, ins, p, n);
+        bool twice = false; /* two alike: which one came? Send it once */
+        for (uint32_t i = 0; i < seq.n && !twice; i++)
+            twice = seq.len[i] == seq.len[seq.n] && !memcmp(seq.b[i], seq.b[seq.n], seq.len[i]);
+        seq.n += !twice;
+    }
+}
+
+/* Is dispatched frame i packet j? */
+static bool seq_is(uint32_t i, uint32_t j)
+{
+    return j < seq.n && seq.got_len[i] == seq.len[j] - 2u &&
+           memcmp(seq.got[i], &seq.b[j][2], seq.got_len[i]) == 0;
+}
+
+/* Do dispatched frames from i on match the packets from j on, but `skip`, exactly? */
+static bool seq_rest_is(uint32_t i, uint32_t j, int skip)
+{
+    for (; i < seq.seen; i++, j++) {
+        if ((int)j == skip)
+            j++;
+        if (!seq_is(i, j))
+            return false;
+    }
+    if ((int)j == skip)
+        j++;
+    return j >= seq.n;
+}
+
+/* Is dispatched frame `at` one nobody sent that passed its checksum by chance, in the
+ * damaged packet's place? Not a packet sent (or a copy of one that came too),
+ * and followed by the rest of the packets in order, less some it may have taken with
+ * it. Else it is a packet sent, and the ones before it were lost. */
+static bool seq_chance(uint32_t at, int damaged)
+{
+    if (at >= seq.seen)
+        return false; /* nothing where the damage is: the rest was lost */
+    for (uint32_t j = 0; j < seq.n; j++) {
+        if (!seq_is(at, j))
+            continue;
+        bool again = false; /* a copy: the packet itself came too, before or after */
+        for (uint32_t i = 0; i < seq.seen && !again; i++)
+            again = i != at && seq_is(i, j);
+        if (!again)
+            return false;
+    }
+    for (uint32_t j = at; j <= seq.n; j++)
+        if (seq_rest_is(at + 1u, j, damaged))
+            return true;
+    return false;
+}
+
+/* Invariant 4 after a sequence input. damaged: the damaged packet (-1: none, an
+ * insertion between two packets); at: the first packet the damage can touch (the
+ * damaged one, or the one after the inserted byte). The packets before it come as sent;
+ * from it on, the rest come as sent but the damaged one, which may still come whole (an
+ * extra D5 before its header's 5D, say). Any other frame there can only be one nobody
+ * sent that passed its checksum by chance: it did what it did (a WRITE of the ID, a
+ * RESET) and may have taken what followed with it, so the rest is not judged. Every
+ * packet for the servo that came as sent was answered. Unless the receiver counted a
+ * drop: then it said so. */
+static void seq_check(int damaged, uint32_t at, uint32_t overruns, uint8_t my_id)
+{
+    if (servo.rx.overruns != overruns)
+        return;
+    uint32_t i = 0;
+    for (; i < at; i++)
+        FUZZ_CHECK(i < seq.seen && seq_is(i, i));
+    bool whole = (int)at == damaged && at < seq.seen && seq_is(at, at);
+    if (!seq_rest_is(at, at, damaged) && !(whole && seq_rest_is(at + 1u, at, damaged))) {
+        FUZZ_CHECK(seq_chance(at, damaged));
+        return; /* a chance checksum where the damage is: it did what it did */
+    }
+    for (uint32_t k = 0; k < seq.seen; k++) /* every packet sent for the servo answered */
+        for (uint32_t j = 0; j < seq.n; j++)
+            if (seq_is(k, j) && seq.b[j][2] == my_id)
+                FUZZ_CHECK(seq.got_answer[k]);
+}
+
+/* A sequence input: the packets sent as a host sends them, one byte damaged. */
+static void seq_run(struct fuzz_reader *r)
+{
+    uint8_t kind = fuzz_get8(r) % 3u;
+    uint32_t at = fuzz_get8(r);
+    at |= (uint32_t)fuzz_get8(r) << 8;
+    uint8_t v = rich(fuzz_get8(r));
+    uint8_t my_id = servo.link.id;
+    seq_build(r, my_id);
+    uint32_t total = 0;
+    for (uint32_t i = 0; i < seq.n; i++)
+        total += seq.len[i];
+    if (!total)
+        return;
+    at %= kind == 1u ? total + 1u : total;
+    int damaged = -1;
+    uint32_t first = seq.n; /* the first packet the damage can touch */
+    for (uint32_t i = 0, from = 0; i < seq.n; from += seq.len[i++]) {
+        if (at >= from && at < from + seq.len[i] && !(kind == 1u && at == from))
+            damaged = (int)i;
+        if (first == seq.n && at < from + seq.len[i])
+            first = i;
+    }
+    seq.on = true;
+    seq.seen = 0;
+    uint32_t overruns = servo.rx.overruns, pos = 0;
+    uint32_t wait = frame_rx_gap_us(hal.baud) + 255u * 500u + 20000u; /* + delay, answer */
+    for (uint32_t i = 0; i < seq.n; i++) {
+        for (uint32_t j = 0; j < seq.len[i]; j++, pos++) {
+            if (pos == at && kind == 1u)
+                send_byte(v);
+            if (pos == at && kind == 0u)
+                continue;
+            send_byte(pos == at && kind == 2u ? (v == seq.b[i][j] ? (uint8_t)~v : v)
+                                              : seq.b[i][j]);
+        }
+        if (i + 1u == seq.n && at == total && kind == 1u)
+            send_byte(v);
+        if (seq.b[i][2] != PROTO_ID_BROADCAST || i + 1u == seq.n)
+            run_until(hal.now_us + wait, true);
+    }
+    seq.on = false;
+    seq_check(damaged, first, overruns, my_id);
 }
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
@@ -212,6 +420,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     check_table();
 
     struct fuzz_reader r = {data + 2, size - 2u};
+    if (data[0] >= 0xF0u) {
+        seq_run(&r);
+        return 0;
+    }
     for (struct fuzz_wire_event e; hal.now_us < MAX_VIRTUAL_US &&
                                    (e = fuzz_wire_next(&r)).kind != FUZZ_WIRE_END;) {
         switch (e.kind) {

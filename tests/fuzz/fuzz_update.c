@@ -394,7 +394,7 @@ static void deliver(const uint8_t *buf, uint16_t len, bool chk_ok)
                 next = quiet;
             else if (servo.link.state == LINK_WAITING)
                 next = servo.link.due_us;
-            else if (servo.rx.ready_tail == servo.rx.ready_head)
+            else if (servo.rx.rec_tail == servo.rx.rec_ready)
                 break;
             if (servo.link.state == LINK_WAITING && (int32_t)(servo.link.due_us - next) > 0)
                 next = servo.link.due_us;

@@ -1,5 +1,7 @@
 #!/usr/bin/env bash
 # make lint: static analysis with zero findings allowed (docs/lint.md).
+#   0. module ownership (tools/lint/ownership.py: regs.mem written only by regs, a
+#      servo's parts reached into only by their owners)
 #   1. cppcheck (warning, style, performance, portability) on the core, both HALs, boards
 #   2. cppcheck's MISRA C:2012 addon on the core (src/), deviations in tools/lint/misra.txt
 #   3. clang-tidy (.clang-tidy) on src/ and hal/ through build/host/compile_commands.json
@@ -15,6 +17,10 @@ step() { printf '== %-50s' "$1"; }
 verdict() { # $1 = log file; prints "ok" or the findings
     if [ -s "$1" ]; then echo "FINDINGS"; cat "$1"; fail=1; else echo "ok"; fi
 }
+
+step "ownership: module state (tools/lint/ownership.py)"
+/usr/bin/python3 tools/lint/ownership.py . | grep -v '^ownership: 0 finding' > "$out/ownership.log"
+verdict "$out/ownership.log"
 
 common=(--quiet --std=c11 --inline-suppr --error-exitcode=0 -DSERVO_FW_VERSION=1
         --suppress=missingIncludeSystem

@@ -10,7 +10,8 @@
 #include "proto.h"
 
 static const char usage[] =
-    "usage: servo-sim --listen HOST:PORT [--servo ID:VARIANT]... [--state-dir DIR]";
+    "usage: servo-sim --listen HOST:PORT [--servo ID:VARIANT]... [--state-dir DIR] "
+    "[--report-commits]";
 
 static bool parse_uint(const char *s, unsigned long max, unsigned long *out)
 {
@@ -100,6 +101,8 @@ void args_parse(int argc, char **argv, struct sim_args *a)
             a->listen_text = val;
         } else if ((val = option(argc, argv, &i, "--servo"))) {
             add_servo(a, val);
+        } else if (strcmp(argv[i], "--report-commits") == 0) {
+            a->report_commits = true;
         } else if ((val = option(argc, argv, &i, "--state-dir"))) {
             if (!*val)
                 die(2, "--state-dir needs a directory");

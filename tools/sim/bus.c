@@ -1,6 +1,7 @@
 /* bus.c - the servos of servo-sim on one wire, in real time (bus.h). */
 #include "bus.h"
 
+#include <stdio.h>
 #include <stdlib.h>
 #include <time.h>
 
@@ -25,6 +26,11 @@ static bool host_listening;
 static uint8_t host_out[HOST_OUT_MAX];
 static size_t host_out_len;
 
+/* A raw client's bytes and their arrival times; each servo takes them at its own pace. */
+static uint8_t raw_byte[BUS_RAW_MAX];
+static int64_t raw_at_us[BUS_RAW_MAX];
+static uint64_t raw_in; /* bytes a raw client has sent, ever */
+
 static int64_t frontier_us; /* everything up to here has run */
 static int64_t next_tick_us;
 
@@ -44,7 +50,7 @@ int64_t bus_now(void)
     struct timespec t;
     clock_gettime(CLOCK_MONOTONIC, &t);
     return ((int64_t)t.tv_sec - clock_zero.tv_sec) * 1000000 +
-           (t.tv_nsec - clock_zero.tv_nsec) / 1000 + BUS_CONFIG_US;
+           (t.tv_nsec - clock_zero.tv_nsec) / 1000 + BUS_CONFIG_US + HAL_HOST_CLOCK_START;
 }
 
 unsigned bus_count(void)
@@ -119,6 +125,35 @@ static void collect(unsigned i)
     }
 }
 
+/* Register 20 in force (issue 25): a host sees each switch of a servo's terminator. */
+static void report_terminator(struct sim_servo *v)
+{
+    bool on = v->node.hal.termination;
+    if (on == v->terminator)
+        return;
+    v->terminator = on;
+    fprintf(stderr, "servo-sim: ID %u terminator %s\n", link_id(&v->node.servo.link),
+            on ? "on" : "off");
+}
+
+static bool commits_reported;
+
+void bus_report_commits(void)
+{
+    commits_reported = true;
+    for (unsigned i = 0; i < servo_count; i++)
+        servos[i]->tokens = -1;
+}
+
+static void report_tokens(struct sim_servo *v)
+{
+    int now = store_tokens(&v->node.servo.store);
+    if (!commits_reported || now == v->tokens)
+        return;
+    v->tokens = now;
+    fprintf(stderr, "servo-sim: ID %u commit tokens %d\n", link_id(&v->node.servo.link), now);
+}
+
 /* Run servo i's main loop at t: passes at once while a frame waits and the link is free,
  * or while its answer is due. Between its due time and its start (skew) the MCU is still
  * in the pass that will start it: nothing runs. */
@@ -134,7 +169,10 @@ static void run_at(unsigned i, int64_t t)
             break;
         node_step(n, (uint32_t)t);
         collect(i);
-        bool next_frame = l->state == LINK_IDLE && frame_rx_peek(&n->servo.rx) != NULL;
+        report_terminator(servos[i]);
+        report_tokens(servos[i]);
+        /* A frame is executed even while an answer waits (servo.c): only sending stops it. */
+        bool next_frame = l->state != LINK_SENDING && frame_rx_peek(&n->servo.rx) != NULL;
         if (!next_frame && !(l->state == LINK_WAITING && t >= answer_start(i)))
             break; /* else go on at once: no answer waits for the next tick */
     }
@@ -157,7 +195,7 @@ void bus_add(uint8_t arg_id, const struct board *b, const char *state_dir)
         die(1, "out of memory");
     v->arg_id = arg_id;
     servos[servo_count++] = v;
-    node_init(&v->node, b, 0); /* configuration runs from virtual time 0 */
+    node_init(&v->node, b, HAL_HOST_CLOCK_START); /* configuration runs before the real clock */
     if (state_dir) /* before power-up: the store reads the flash there */
         state_open(&v->state, &v->node.hal, state_dir, arg_id, b->name);
     else
@@ -165,8 +203,9 @@ void bus_add(uint8_t arg_id, const struct board *b, const char *state_dir)
     bool blank = flash_blank(&v->node.hal);
     node_power_on(&v->node); /* the factory image if the slot is blank, then the boot */
     state_write(&v->state);  /* a programmer's write is not a counted flash operation */
-    if (blank && v->node.servo.link.id != arg_id && !node_set_id(&v->node, arg_id))
+    if (blank && link_id(&v->node.servo.link) != arg_id && !node_set_id(&v->node, arg_id))
         die(1, "could not set the ID of servo %u:%s", arg_id, b->name);
+    report_terminator(v); /* register 20 from flash */
     state_sync(&v->state);
 }
 
@@ -267,6 +306,54 @@ static void rx_deliver(unsigned r, int64_t t)
     run_now[r] = frame_rx_peek(&n->servo.rx) != NULL;
 }
 
+/* When servo i's UART completes the next raw client byte (ns), or NONE: back to back
+ * after the one before, not before it arrived, 10 bit-times at the servo's baud. */
+static int64_t raw_end_ns(unsigned i)
+{
+    const struct sim_servo *v = servos[i];
+    if (v->raw_next == raw_in)
+        return NONE;
+    int64_t start = raw_at_us[v->raw_next % BUS_RAW_MAX] * 1000;
+    if (v->raw_end_ns > start)
+        start = v->raw_end_ns;
+    return wire_bit_ns(start, v->node.hal.baud, 10u);
+}
+
+static int64_t raw_due(unsigned i)
+{
+    int64_t end = raw_end_ns(i);
+    return end == NONE ? NONE : ceil_us(end);
+}
+
+/* Servo i's UART completes raw client bytes up to t. */
+static void raw_deliver(unsigned i, int64_t t)
+{
+    struct sim_servo *v = servos[i];
+    struct node *n = &v->node;
+    for (int64_t end; (end = raw_end_ns(i)) != NONE && ceil_us(end) <= t;) {
+        if (ceil_us(end) > unwrap(n->hal.now_us))
+            n->hal.now_us = (uint32_t)ceil_us(end);
+        servo_rx_isr(&n->servo, raw_byte[v->raw_next++ % BUS_RAW_MAX]);
+        v->raw_end_ns = end;
+        run_now[i] = run_now[i] || frame_rx_peek(&n->servo.rx) != NULL;
+    }
+}
+
+/* Frames servo i's receiver had to drop since the last report: say so on stderr, at
+ * most one line per servo per BUS_DROPS_US of bus time (a storm would flood it). */
+#define BUS_DROPS_US 100000
+static void report_drops(unsigned i, int64_t t)
+{
+    struct sim_servo *v = servos[i];
+    uint32_t now = frame_rx_dropped(&v->node.servo.rx);
+    if (now == v->drops || t - v->drops_us < BUS_DROPS_US)
+        return;
+    fprintf(stderr, "servo-sim: ID %u dropped %u frame(s): no room in its receive queue "
+            "(%u in all)\n", link_id(&v->node.servo.link), now - v->drops, now);
+    v->drops = now;
+    v->drops_us = t;
+}
+
 /* ---- Time ------------------------------------------------------------------------ */
 
 /* When servo i's pending answer is to start, unless its main loop already ran at or
@@ -290,6 +377,10 @@ static int64_t next_event(void)
     }
     for (unsigned r = 0; r <= servo_count; r++) {
         int64_t d = rx_due(r);
+        t = d < t ? d : t;
+    }
+    for (unsigned i = 0; i < servo_count; i++) {
+        int64_t d = raw_due(i);
         t = d < t ? d : t;
     }
     return t;
@@ -320,11 +411,14 @@ void bus_advance(int64_t now)
         for (unsigned r = 0; r <= servo_count; r++)
             if (rx_due(r) <= t)
                 rx_deliver(r, t);
+        for (unsigned i = 0; i < servo_count; i++)
+            raw_deliver(i, t);
         bool tick = t >= next_tick_us;
         for (unsigned i = 0; i < servo_count; i++) {
             if (tick || run_now[i] || answer_event(i) <= t)
                 run_at(i, t);
             run_now[i] = false;
+            report_drops(i, t);
         }
         while (next_tick_us <= t)
             next_tick_us += BUS_TICK_US;
@@ -332,6 +426,15 @@ void bus_advance(int64_t now)
     }
     frontier_us = now;
     prune();
+}
+
+/* Every drop not reported yet, now. */
+static void report_all_drops(void)
+{
+    for (unsigned i = 0; i < servo_count; i++) {
+        servos[i]->drops_us = INT64_MIN / 2;
+        report_drops(i, frontier_us);
+    }
 }
 
 uint32_t bus_next_wake(int64_t now)
@@ -342,9 +445,17 @@ uint32_t bus_next_wake(int64_t now)
 
 /* ---- The host -------------------------------------------------------------------- */
 
+/* The raw client's bytes not delivered yet are gone (it left, or a new one came). */
+static void raw_forget(void)
+{
+    for (unsigned i = 0; i < servo_count; i++)
+        servos[i]->raw_next = raw_in;
+}
+
 void bus_host_connect(int64_t now)
 {
     bus_advance(now);
+    raw_forget();
     /* The host's UART starts hunting once the bytes on the line now have ended. */
     int64_t t = now * 1000;
     for (unsigned k = 0; k < wire.talkers; k++) {
@@ -368,6 +479,7 @@ void bus_host_connect(int64_t now)
 void bus_host_disconnect(int64_t now)
 {
     bus_advance(now);
+    raw_forget();
     wire_drop_after(&wire, host_talker, now * 1000);
     host_listening = false;
     host_baud = 0;
@@ -379,15 +491,20 @@ void bus_host_uart(uint32_t baud)
     host_baud = baud;
 }
 
+size_t bus_host_raw_room(void)
+{
+    uint64_t oldest = raw_in;
+    for (unsigned i = 0; i < servo_count; i++)
+        oldest = servos[i]->raw_next < oldest ? servos[i]->raw_next : oldest;
+    return BUS_RAW_MAX - (size_t)(raw_in - oldest);
+}
+
 void bus_host_raw(const uint8_t *in, size_t n, int64_t now)
 {
     bus_advance(now);
-    for (unsigned i = 0; i < servo_count; i++) {
-        struct node *nd = &servos[i]->node;
-        run_at(i, now); /* bring the servo up to the arrival time */
-        for (size_t k = 0; k < n; k++)
-            servo_rx_isr(&nd->servo, in[k]);
-        run_at(i, now);
+    for (size_t k = 0; k < n; k++, raw_in++) {
+        raw_byte[raw_in % BUS_RAW_MAX] = in[k];
+        raw_at_us[raw_in % BUS_RAW_MAX] = now;
     }
 }
 
@@ -417,6 +534,7 @@ size_t bus_output(uint8_t *out, size_t max)
 
 void bus_free(void)
 {
+    report_all_drops();
     for (unsigned i = 0; i < servo_count; i++) {
         state_close(&servos[i]->state);
         free(servos[i]);

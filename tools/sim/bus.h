@@ -1,24 +1,31 @@
 /* bus.h - the servos of servo-sim on one wire, in real time.
  *
  * Each servo is a node (hal/host/node.h) whose clock (hal.now_us) is CLOCK_MONOTONIC in
- * microseconds, plus a configuration window before it. The line is hal/host/wire.h: what
+ * microseconds, plus a configuration window before it, from HAL_HOST_CLOCK_START: 10 s
+ * before the 32-bit clock wraps, so every session crosses the wrap. When a servo switches
+ * its RS485 terminator (register 20), stderr says `servo-sim: ID N terminator on|off`. The line is hal/host/wire.h: what
  * every servo sends goes on it at the servo's baud, two servos sending at once garble
  * each other (the AND of the talkers, RS485 idle high), and every servo hears the line
  * through its own UART at its own baud (register 4): other servos' answers included, its
  * own echo and framing errors dropped, as the STM32 port does.
  *
  * The host, i.e. the TCP client, is one of two kinds (client.c tells them apart):
- * - raw (tcp://, today's contract): no baud rate. Its bytes reach every servo the moment
- *   they arrive, whatever the servo's baud, and take no wire time; it hears the line at
- *   every baud (each byte at the baud of the talker whose start bit it is).
+ * - raw (tcp://): no baud rate. Its bytes reach every servo whatever the servo's baud,
+ *   paced as a UART at that baud would deliver them: back to back from when they arrive,
+ *   each taking its 10 bit-times (so a burst sent in one socket write behaves as on a real
+ *   bus, where the servo's main loop takes each frame before the next has arrived). They
+ *   do not go on the line (no collisions). It hears the line at every baud (each byte at
+ *   the baud of the talker whose start bit it is). When a servo's queue of raw bytes is
+ *   full (BUS_RAW_MAX), servo-sim stops reading the socket: TCP's flow control paces a
+ *   client that sends faster than the wire.
  * - a UART at a baud the client sets (RFC 2217, rfc2217://): its bytes go on the line at
  *   that baud, back to back, from when they arrive; it hears the line at that baud. A
  *   servo at another baud receives what its UART would make of them: framing errors and
  *   garbage, so it does not answer, and its answers reach the host as garbage.
  *
  * Time runs as discrete events in order, up to the real clock: a servo's main-loop pass
- * at every BUS_TICK_US, when its answer falls due, and when its UART completes a byte;
- * the host's UART completing a byte. A new byte only ever starts at such an event, so a
+ * at every BUS_TICK_US, when its answer falls due, and when its UART completes a byte (from
+ * the line, or a raw client's); the host's UART completing a byte. A new byte only ever starts at such an event, so a
  * byte is decoded from a line that is final up to its stop bit. A servo's answer starts
  * up to BUS_LOOP_US plus 1/16 bit after it falls due (the MCU's main-loop latency and its
  * receiver's sampling phase), drawn per answer: two servos with one ID answer a few
@@ -28,7 +35,11 @@
  * BUS_CATCH_UP_US behind (the process was stopped) the clock jumps.
  *
  * The motor and the photo switches of each servo are the host HAL's plant
- * (hal_host_attach_board()), integrated up to the real clock. */
+ * (hal_host_attach_board()), integrated up to the real clock.
+ *
+ * A frame a servo's receiver had to drop (no room in its queue: frame_rx.h, overruns) is
+ * reported on stderr, "servo-sim: ID n dropped k frame(s): ...", so a host can see it: at
+ * most a line per servo per 100 ms, and what is left when servo-sim ends. */
 #ifndef BUS_H
 #define BUS_H
 
@@ -43,20 +54,32 @@
 #define BUS_TICK_US 500u      /* main-loop period when nothing is due sooner */
 #define BUS_LOOP_US 8u        /* the MCU's main-loop latency: a reply starts up to this late */
 #define BUS_CATCH_UP_US 200000 /* a bus this far behind real time jumps */
+#define BUS_RAW_MAX 65536u     /* power of two: a raw client's bytes not yet delivered */
 
 struct sim_servo {
     struct node node;
     uint8_t arg_id;      /* as given on the command line; names the state file */
     struct state_file state;
     struct wire_rx rx;   /* its UART on the line */
+    bool terminator;     /* the RS485 terminator as last reported on stderr */
+    int tokens;          /* its commit tokens as last reported (-1: not yet) */
     int64_t send_t0_ns;  /* the transmission its bytes belong to (exact bit times) */
     uint32_t send_t0_us, send_baud, send_i;
+    uint64_t raw_next;   /* the next raw client byte its UART delivers (a count) */
+    int64_t raw_end_ns;  /* when the last one it delivered ended */
+    uint32_t drops;      /* its receiver's overruns, as last reported */
+    int64_t drops_us;    /* when */
 };
 
 /* Add a servo of board b: its state file first (with state_dir), then power-up; a new
  * servo (blank flash) gets arg_id the one way (node_set_id), in virtual time before the
  * real clock starts. Call before bus_start(). */
 void bus_add(uint8_t arg_id, const struct board *b, const char *state_dir);
+
+/* --report-commits: from now on, each change of a servo's flash commit tokens (a commit
+ * spent, a token back) is a line `servo-sim: ID N commit tokens T` on stderr, and each
+ * servo's count once at once: what a host's budget estimate is checked against. */
+void bus_report_commits(void);
 
 /* The real clock starts: every servo's clock is set to it. */
 void bus_start(void);
@@ -85,8 +108,12 @@ void bus_host_disconnect(int64_t now);
 /* The client is a UART at baud (RFC 2217), from now on. */
 void bus_host_uart(uint32_t baud);
 
-/* Raw host bytes, arrived at now: every servo receives them at once. */
+/* Raw host bytes, arrived at now: every servo receives them at its baud, after what came
+ * before (n at most bus_host_raw_room()). */
 void bus_host_raw(const uint8_t *in, size_t n, int64_t now);
+
+/* How many raw bytes the servos' queues take now. */
+size_t bus_host_raw_room(void);
 
 /* UART host bytes, arrived at now: on the line at the host's baud, after what it sent
  * before. */
@@ -99,6 +126,7 @@ void bus_host_purge(int64_t now);
  * rest is dropped, as with no client: pass max 0). Returns the count. */
 size_t bus_output(uint8_t *out, size_t max);
 
+/* The end: every drop not reported yet is, then the servos go. */
 void bus_free(void);
 
 #endif

@@ -127,11 +127,20 @@ static bool flush_out(int fd)
     return true;
 }
 
+/* Room for one more read of a client: a raw client's bytes wait for the servos' UARTs
+ * (bus.h), and a client faster than them waits in the socket (TCP's flow control). */
+static bool room_for_input(void)
+{
+    return kind != KIND_RAW || bus_host_raw_room() >= IN_MAX;
+}
+
 /* Feed what the client sent to the bus, as it arrives; all of it if drain (else one
- * read); close the client at its end of stream. */
+ * read), as far as there is room; close the client at its end of stream. */
 static void client_input(int *client, int64_t now, bool drain)
 {
     do {
+        if (!room_for_input())
+            return; /* the rest waits in the socket */
         uint8_t in[IN_MAX];
         ssize_t n = recv(*client, in, sizeof in, MSG_DONTWAIT);
         if (n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)) {
@@ -177,7 +186,7 @@ void client_serve(int lfd, const sigset_t *poll_mask, volatile sig_atomic_t *sto
         int64_t now = bus_now();
         uint32_t wake = bus_next_wake(now);
         struct timespec ts = {0, (long)wake * 1000};
-        struct pollfd pfd[2] = {{lfd, POLLIN, 0}, {client, POLLIN, 0}};
+        struct pollfd pfd[2] = {{lfd, POLLIN, 0}, {client, room_for_input() ? POLLIN : 0, 0}};
         if (client >= 0 && out_len)
             pfd[1].events |= POLLOUT;
         int r = ppoll(pfd, client >= 0 ? 2u : 1u, &ts, poll_mask);

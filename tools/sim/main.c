@@ -81,6 +81,8 @@ int main(int argc, char **argv)
     for (unsigned i = 0; i < args.nservos; i++)
         bus_add(args.servo[i].id, args.servo[i].board, args.state_dir);
     bus_start();
+    if (args.report_commits)
+        bus_report_commits();
     banner(&args.listen);
     client_serve(lfd, &poll_mask, &stop_signal);
     close(lfd);
