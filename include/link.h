@@ -105,9 +105,11 @@ static inline uint8_t link_state(const struct link *l)
     return l->state;
 }
 
-static inline bool link_waiting(const struct link *l)
+/* An answer waits and reports no checksum or instruction error (tx[4]: the ERR byte of
+ * D5 5D ID LEN ERR ...): the kind a frame's error answer must not replace. */
+static inline bool link_waiting_good(const struct link *l)
 {
-    return l->state == LINK_WAITING;
+    return l->state == LINK_WAITING && (l->tx[4] & (ERR_CHECKSUM | ERR_INSTRUCTION)) == 0u;
 }
 
 #endif

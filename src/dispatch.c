@@ -270,9 +270,9 @@ void dispatch_frame(struct servo *s, const struct frame *f)
             command_torque_off(s); /* no motion during an update */
         return;
     }
-    /* An error answer never replaces one that waits (docs/decisions.md): what failed may
-     * be another servo's answer at this ID, and the host waits for ours. */
-    bool quiet_errors = link_waiting(l);
+    /* An error answer never replaces a good one that waits (docs/decisions.md): what
+     * failed may be another servo's answer at this ID, and the host waits for ours. */
+    bool quiet_errors = link_waiting_good(l);
     if (f->status != FRAME_OK) {
         /* Not executed; answered only where level 2 and register 18 bit 4 allow. */
         if (!broadcast && !quiet_errors && link_answers_checksum_errors(l))

@@ -213,6 +213,7 @@ static void head_over(struct frame_rx *rx, uint8_t how, uint32_t now_us)
         *rec_at(rx, h) = (struct frame_rec){0, (uint8_t)(old | TAG_OK | TAG_LAST), 0};
         rx->rec_end = (uint8_t)(h + 1u);
         rx->lost = 0; /* what found no record was its payload too */
+        rx->prev = 0; /* so is a D5 5D ending on its checksum byte (frame_rx_byte) */
         store_release(&rx->rec_ready, (uint8_t)(h + 1u));
         return;
     }
@@ -364,8 +365,13 @@ void frame_rx_byte(struct frame_rx *rx, uint8_t b, uint32_t now_us)
         if (!FRAME_RX_INNER || q == rx->next_ev)
             event(rx, q, b, s, now_us);
     }
-    /* After the head's byte: a header ending on the head's last byte starts the next. */
-    if (prev == PROTO_HEADER0 && b == PROTO_HEADER1)
+    /* After the head's byte: a header ending on the last byte of a head that failed
+     * starts the next; not on a good one's (head_over() cleared prev): that D5 5D was
+     * its payload and checksum. One starting on its checksum byte may be real (the
+     * byte the checksum stood in for was lost), so prev is the byte again after. */
+    bool header = prev == PROTO_HEADER0 && rx->prev == PROTO_HEADER1;
+    rx->prev = b;
+    if (header)
         candidate_start(rx);
 }
 

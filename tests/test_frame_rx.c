@@ -367,6 +367,44 @@ static void candidate_on_a_frames_last_byte_goes_with_it(void **state)
     assert_true(same(&got.f[1], g2, n2, FRAME_OK));
 }
 
+/* Found by fuzz_frame (invariant 4): a good frame whose last parameter is D5 and whose
+ * checksum is 5D. That pair is its payload, not a header: taken as one, it made a
+ * candidate of the next packet's own D5 5D (ID D5, LEN 5D: 95 bytes), and when that
+ * one's last byte passed its checksum (1 in 256; here made so), the eleven good packets
+ * inside it went as its payload. */
+static void header_ending_on_a_good_frames_checksum_is_payload(void **state)
+{
+    (void)state;
+    uint8_t p0[16], last[16];
+    size_t n0 = 0;
+    for (uint32_t x = 0; x < 256u; x++) {
+        n0 = mk(p0, PROTO_ID_BROADCAST, INS_WRITE, (const uint8_t[]){0x20, (uint8_t)x, 0xD5}, 3);
+        if (p0[n0 - 1u] == 0x5D)
+            break;
+    }
+    assert_int_equal(p0[n0 - 2u], 0xD5);
+    assert_int_equal(p0[n0 - 1u], 0x5D);
+    uint8_t sum = 0; /* the would-be candidate's bytes, from the next packet's D5 on */
+    for (size_t i = 0; i < 11u; i++)
+        for (size_t j = 0; j < sizeof READ2; j++)
+            sum = (uint8_t)(sum + READ2[j]);
+    sum = (uint8_t)(sum + 0xD5 + 0x5D + 0x02 + 0x05 + 0x03 + 0x1E); /* the last packet's */
+    size_t nl = mk(last, 0x02, INS_WRITE, (const uint8_t[]){0x1E, sum, 0x00}, 3);
+    assert_int_equal(last[6], sum); /* byte 94 after p0: that candidate's checksum */
+    start(115200);
+    feed(p0, n0);
+    for (size_t i = 0; i < 11u; i++)
+        feed(READ2, sizeof READ2);
+    feed(last, nl);
+    quiet();
+    assert_int_equal(got.n, 13);
+    assert_true(same(&got.f[0], p0, n0, FRAME_OK));
+    for (size_t i = 1; i < 12u; i++)
+        assert_true(same(&got.f[i], READ2, sizeof READ2, FRAME_OK));
+    assert_true(same(&got.f[12], last, nl, FRAME_OK));
+    assert_int_equal(rx.overruns, 0);
+}
+
 /* ---- time-out (§1) ------------------------------------------------------------- */
 
 static void gap_inside_frame_abandons_it(void **state)
@@ -865,6 +903,7 @@ int main(void)
         cmocka_unit_test(issue25_sync_write_without_its_id_keeps_the_write_behind_it),
         cmocka_unit_test(issue25_junk_with_nested_headers_keeps_the_next_three_packets),
         cmocka_unit_test(candidate_on_a_frames_last_byte_goes_with_it),
+        cmocka_unit_test(header_ending_on_a_good_frames_checksum_is_payload),
         cmocka_unit_test(gap_inside_frame_abandons_it),
         cmocka_unit_test(frame_after_abandoned_one_is_received),
         cmocka_unit_test(len_0_1_and_id_ff_dropped),

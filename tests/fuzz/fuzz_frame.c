@@ -131,6 +131,7 @@ static bool poll_once(void)
     const struct frame *next = frame_rx_peek(&servo.rx);
     struct frame taken = next ? *next : (struct frame){0, 0, 0, NULL};
     uint32_t sends = hal.sends, log_from = hal.log_len;
+    struct link before = servo.link;
     servo.motion.tick_us = hal.now_us; /* no control tick is due */
     hal.motor.last_us = hal.now_us;    /* the plant does not move */
     servo_poll(&servo);
@@ -144,14 +145,20 @@ static bool poll_once(void)
         uint8_t status = taken.status;
         bool ping = status == FRAME_OK && buf[2] == INS_PING;
         uint16_t len = taken.len;
+        /* A frame is executed while an earlier answer waits (its return delay, a PING
+         * slot): only an answer this frame scheduled or replaced is its own. */
+        bool scheduled = servo.link.state != LINK_IDLE &&
+                         (before.state != LINK_WAITING || before.due_us != servo.link.due_us ||
+                          before.tx_len != servo.link.tx_len ||
+                          memcmp(before.tx, servo.link.tx, sizeof before.tx) != 0);
         if (seq.on && status == FRAME_OK && seq.seen < 2u * SEQ_PACKETS) {
             bool fits = len <= SEQ_BYTES; /* a longer one is nobody's: got_len 0 */
             seq.got_len[seq.seen] = fits ? (uint8_t)len : 0u;
             if (fits)
                 memcpy(seq.got[seq.seen], buf, len);
-            seq.got_answer[seq.seen++] = servo.link.state != LINK_IDLE;
+            seq.got_answer[seq.seen++] = scheduled;
         }
-        if (servo.link.state != LINK_IDLE) {
+        if (scheduled) {
             /* An answer is scheduled, so the settings in force are still those the frame
              * arrived under (new ones apply once the answer is out). */
             uint8_t my_id = servo.link.id;
