@@ -28,7 +28,7 @@ void hal_uart_set_baud(struct hal *h, uint32_t baud);
  * divider only comes close, and a fall-back clock (an MCU whose crystal did not start)
  * cannot make the fastest rates at all. The core refuses a baud code whose rate this
  * misses by more than 2 % (link_baud_reachable). Main loop. */
-uint32_t hal_uart_baud_achieved(struct hal *h, uint32_t baud);
+uint32_t hal_uart_baud_achieved(const struct hal *h, uint32_t baud);
 
 /* Start sending len bytes without blocking: assert the RS485 driver enable, then send.
  * The buffer stays valid and untouched until hal_uart_tx_busy() returns false.

@@ -4,6 +4,8 @@
  * motion.c through motion_mode.h. It keeps no state of its own and never touches the
  * motion layer's. Rule 3 of §0 lives here: a speed of 0 is never refused and drops the
  * torque at once. Main loop only. */
+#include <stddef.h>
+
 #include "command.h"
 #include "motion_mode.h"
 #include "proto.h"
@@ -67,7 +69,7 @@ static void resolution_written(struct servo *s, uint8_t old_res)
     bool inside = !regs_speed_mode(r) && was >= regs_get(r, REG_CW_LIMIT) &&
                   was <= regs_get(r, REG_CCW_LIMIT);
     static const uint8_t rescaled[] = {REG_CW_LIMIT, REG_CCW_LIMIT, REG_GOAL_POSITION};
-    for (uint8_t i = 0; i < sizeof rescaled; i++) {
+    for (size_t i = 0; i < sizeof rescaled; i++) {
         uint8_t a = rescaled[i];
         uint32_t v = ((uint32_t)regs_get(r, a) * old_res + new_res / 2u) / new_res;
         regs_set(r, a, (uint16_t)(v > regs_table[a].max ? regs_table[a].max : v));

@@ -165,6 +165,7 @@ static uint8_t do_custom_move(struct servo *s, const uint8_t *p, uint8_t n,
  * speed parameter whose 0 is a stop (rule 3) or NO_SPEED, handler, the SDK's name. One
  * list yields both the table (rules, for dispatch, the SDK and the tests) and the switch
  * that calls the handlers, which the compiler can then inline. */
+/* cppcheck-suppress misra-c2012-20.7 ; an X-macro list: X names a macro (docs/lint.md) */
 #define INSTRUCTIONS(X)                                                                      \
     X(INS_PING, INS_ANSWER_ALWAYS | INS_IN_UPDATE, 0, 0, NO_SPEED, do_ping, "ping")         \
     X(INS_READ, INS_ANSWER_LEVEL1 | INS_IN_UPDATE, 2, 2, NO_SPEED, do_read, "read")         \
@@ -182,11 +183,13 @@ static uint8_t do_custom_move(struct servo *s, const uint8_t *p, uint8_t n,
 /* CUSTOM's sub-commands (§4.8), the same way; n counts the sub-command's own parameters.
  * The §10 update sub-commands (0xFC, 0xFE) are frames of their own, taken before
  * dispatch (update.h). */
+/* cppcheck-suppress misra-c2012-20.7 ; an X-macro list: X names a macro (docs/lint.md) */
 #define CUSTOM_SUBS(X)                                                                       \
     X(0x01u, INS_MOVES, 4, 6, 2, do_custom_move, "move_relative")                           \
     X(0x02u, INS_MOVES, 6, 6, 2, do_custom_move, "move_absolute")
 
-#define ENTRY(code, flags, min_n, max_n, speed_at, run, name) {code, flags, min_n, max_n, speed_at NAME(name)},
+#define ENTRY(code, flags, min_n, max_n, speed_at, run, name)                                 \
+    {(code), (flags), (min_n), (max_n), (speed_at)NAME(name)},
 const struct instruction dispatch_instructions[] = {INSTRUCTIONS(ENTRY)};
 const uint8_t dispatch_instruction_count =
     sizeof dispatch_instructions / sizeof dispatch_instructions[0];
@@ -220,8 +223,8 @@ static uint8_t check(const struct servo *s, const struct instruction *in, const 
 }
 
 #define CALL(code, flags, min_n, max_n, speed_at, run, name)                                  \
-    case code:                                                                               \
-        return run(s, p, n, res);
+    case (code):                                                                             \
+        return (run)(s, p, n, res);
 
 static uint8_t do_custom(struct servo *s, const uint8_t *p, uint8_t n, struct dispatch_result *res)
 {
@@ -230,6 +233,7 @@ static uint8_t do_custom(struct servo *s, const uint8_t *p, uint8_t n, struct di
     if (err)
         return err; /* other subs and lengths (§4.8), or a move that may not start */
     switch (p[0]) {
+        /* NOLINTNEXTLINE(bugprone-branch-clone): both moves share a handler, by design */
         CUSTOM_SUBS(CALL)
     default:
         return ERR_INSTRUCTION;

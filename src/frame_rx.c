@@ -205,7 +205,6 @@ static void head_start(struct frame_rx *rx, uint8_t to, uint16_t at, uint8_t sum
 static void head_over(struct frame_rx *rx, uint8_t how, uint32_t now_us)
 {
     uint8_t h = rx->rec_ready, end = rx->rec_end, w = h;
-    uint8_t i = FRAME_RX_INNER ? (uint8_t)(h + 1u) : end; /* the candidates inside it */
     uint8_t old = rec_at(rx, h)->tag;
     rx->end_us[old] = now_us;
     rx->in_frame = 0;
@@ -219,7 +218,8 @@ static void head_over(struct frame_rx *rx, uint8_t how, uint32_t now_us)
     }
     if (how == HEAD_BAD)
         *rec_at(rx, w++) = (struct frame_rec){0, (uint8_t)(old | TAG_BAD), 0};
-    for (; FRAME_RX_INNER && i != end; i++) {
+    uint8_t i = FRAME_RX_INNER ? (uint8_t)(h + 1u) : end; /* the candidates inside it */
+    for (; i != end; i++) {
         struct frame_rec r = *rec_at(rx, i);
         if (r.tag & TAG_OK) /* late rather than lost: a frame in the old head's buffer */
             *rec_at(rx, w++) = (struct frame_rec){(uint16_t)(r.at - rx->hstart), (uint8_t)(old | TAG_OK), 0};
@@ -232,7 +232,7 @@ static void head_over(struct frame_rx *rx, uint8_t how, uint32_t now_us)
         slot_drop(rx, old);
     store_release(&rx->rec_ready, w);
     rx->rec_end = w;
-    if (FRAME_RX_INNER && i != end) {
+    if (i != end) { /* never without FRAME_RX_INNER */
         uint8_t to = slot_take(rx);
         if (to != NO_SLOT) {
             struct frame_rec r = *rec_at(rx, i);

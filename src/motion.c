@@ -49,10 +49,11 @@ void motion_rest_span(const struct servo *s, int32_t *lo, int32_t *hi)
 {
     const struct motion *m = &s->motion;
     if (m->mode != MOTION_HOLD) {
-        *lo = *hi = motion_present_units(s);
+        *lo = motion_present_units(s);
+        *hi = *lo;
         return;
     }
-    const int64_t band = CONTROL_HOLD_BAND * PLANNER_ONE;
+    const int64_t band = (int64_t)CONTROL_HOLD_BAND << PLANNER_SHIFT; /* in Q24 */
     *lo = q24_to_units(s, m->plan.pos - band);
     *hi = q24_to_units(s, m->plan.pos + band);
 }

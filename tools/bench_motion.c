@@ -24,7 +24,7 @@ struct hal {
 
 uint32_t hal_clock_us(struct hal *h) { return h->now; }
 void hal_uart_set_baud(struct hal *h, uint32_t baud) { (void)h; (void)baud; }
-uint32_t hal_uart_baud_achieved(struct hal *h, uint32_t baud) { (void)h; return baud; }
+uint32_t hal_uart_baud_achieved(const struct hal *h, uint32_t baud) { (void)h; return baud; }
 void hal_uart_send(struct hal *h, const uint8_t *buf, uint16_t len) { (void)h; (void)buf; (void)len; }
 bool hal_uart_tx_busy(struct hal *h) { (void)h; return false; }
 uint32_t hal_irq_save(struct hal *h) { (void)h; return 0; }

@@ -70,7 +70,7 @@ void hal_uart_set_baud(struct hal *h, uint32_t baud)
 }
 
 /* As the STM32's USART would on uart_clock_hz: the divider rounded, 16 at least. */
-uint32_t hal_uart_baud_achieved(struct hal *h, uint32_t baud)
+uint32_t hal_uart_baud_achieved(const struct hal *h, uint32_t baud)
 {
     if (h->uart_clock_hz == 0u)
         return baud;

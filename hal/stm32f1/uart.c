@@ -122,7 +122,7 @@ void hal_uart_set_baud(struct hal *h, uint32_t baud)
 }
 
 /* The rate BRR gives: PCLK2 / BRR (RM0008 §27.3.4). */
-uint32_t hal_uart_baud_achieved(struct hal *h, uint32_t baud)
+uint32_t hal_uart_baud_achieved(const struct hal *h, uint32_t baud)
 {
     return h->pclk2_hz / brr_for(h, baud);
 }

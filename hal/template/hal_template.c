@@ -51,7 +51,7 @@ void hal_uart_set_baud(struct hal *h, uint32_t baud)
  * force (the divider's rounding; what a fall-back clock cannot reach at all). The core
  * refuses a baud code that this misses by more than 2 %. A UART that makes every rate of
  * PROTOCOL.md §5.2 exactly returns baud. */
-uint32_t hal_uart_baud_achieved(struct hal *h, uint32_t baud)
+uint32_t hal_uart_baud_achieved(const struct hal *h, uint32_t baud)
 {
     (void)h;
     return baud;
