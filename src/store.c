@@ -141,7 +141,11 @@ static uint8_t spare_page(const struct store *st)
     return st->active == STORE_NO_PAGE ? 0u : (uint8_t)((st->active + 1u) % HAL_FLASH_PAGES);
 }
 
-void store_load(struct store *st, struct hal *hal, struct regs *r, uint32_t now_us)
+/* Not inlined: at power-up only, and its two copies of struct store_values (216 B) would
+ * otherwise sit in the frame of the main loop it is inlined into under -flto, under every
+ * call the loop makes for ever (the worst-case stack of make firmware). */
+__attribute__((noinline)) void store_load(struct store *st, struct hal *hal, struct regs *r,
+                                          uint32_t now_us)
 {
     memset(st, 0, sizeof *st);
     st->hal = hal;
