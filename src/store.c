@@ -26,8 +26,12 @@ static uint16_t half_at(const uint8_t *page, uint16_t off)
 
 static uint32_t header_crc(uint32_t seq)
 {
-    const uint8_t bytes[6] = {(uint8_t)MAGIC, (uint8_t)(MAGIC >> 8), (uint8_t)seq,
-                              (uint8_t)(seq >> 8), (uint8_t)(seq >> 16), (uint8_t)(seq >> 24)};
+    /* Little-endian (regs.h: the targets are): MAGIC then seq copied from two words,
+     * not six byte stores. */
+    const uint32_t words[2] = {MAGIC, seq};
+    uint8_t bytes[6];
+    __builtin_memcpy(bytes, words, 2);
+    __builtin_memcpy(&bytes[2], &words[1], 4);
     return ~crc32_update(CRC32_INIT, bytes, sizeof bytes);
 }
 
@@ -35,9 +39,10 @@ static uint32_t header_crc(uint32_t seq)
  * 0xFFFF (an unwritten half-word) mapped away so it never matches. */
 static uint16_t record_check(uint16_t head, uint16_t value, uint32_t seq)
 {
-    const uint8_t bytes[8] = {(uint8_t)head, (uint8_t)(head >> 8), (uint8_t)value,
-                              (uint8_t)(value >> 8), (uint8_t)seq, (uint8_t)(seq >> 8),
-                              (uint8_t)(seq >> 16), (uint8_t)(seq >> 24)};
+    /* Little-endian, as header_crc: two words, not eight byte stores. */
+    const uint32_t words[2] = {head | ((uint32_t)value << 16), seq};
+    uint8_t bytes[8];
+    __builtin_memcpy(bytes, words, sizeof bytes);
     uint16_t crc = crc16_update(0xFFFFu, bytes, sizeof bytes);
     return crc == ERASED ? 0x7FFFu : crc;
 }
