@@ -83,11 +83,14 @@ static bool slot_blank(const uint8_t *page, uint16_t off)
 
 /* Read the records of a committed page: complete groups only, in order, each address
  * keeping the last value a complete group gave it. Returns the offset of the first
- * blank slot (where the next record goes). Table-free: the bootloader uses it alone. */
+ * blank slot (where the next record goes). Table-free: the bootloader uses it alone.
+ * A group is applied once its last record is read, from its first one on: every record
+ * between them is valid (a torn one ends the group), so no copy of *v is needed (a
+ * struct store_values less on the stack of power-up). */
+_Static_assert(STORE_HEADER_BYTES > 0u, "scan: offset 0 is never a record");
 static uint16_t scan(const uint8_t *page, uint32_t seq, struct store_values *v)
 {
-    struct store_values group = *v;
-    bool in_group = false;
+    uint16_t first = 0; /* the open group's first record; 0: none (the header is there) */
     uint16_t off = STORE_HEADER_BYTES;
     for (; off + STORE_RECORD_BYTES <= HAL_FLASH_PAGE_BYTES; off += STORE_RECORD_BYTES) {
         if (slot_blank(page, off))
@@ -97,20 +100,18 @@ static uint16_t scan(const uint8_t *page, uint32_t seq, struct store_values *v)
         bool valid = half_at(page, off + 4u) == record_check(head, value, seq) &&
                      (tag & 0x3Fu) == TAG_PATTERN && addr < REGS_SIZE;
         if (!valid) {
-            in_group = false; /* a torn record ends the group it was in: dropped */
+            first = 0; /* a torn record ends the group it was in: dropped */
             continue;
         }
-        if (tag & TAG_FIRST) {
-            group = *v;
-            in_group = true;
-        }
-        if (!in_group)
-            continue; /* the rest of a group whose start was lost */
-        group.value[addr] = value;
-        group.found |= (uint64_t)1u << addr;
-        if (tag & TAG_LAST) {
-            *v = group;
-            in_group = false;
+        if (tag & TAG_FIRST)
+            first = off; /* a group left open before it is dropped */
+        if (first && (tag & TAG_LAST)) { /* else the rest of a group whose start was lost */
+            for (uint16_t at = first; at <= off; at += STORE_RECORD_BYTES) {
+                uint8_t a = page[at]; /* the head's low byte (little-endian): the address */
+                v->value[a] = half_at(page, at + 2u);
+                v->found |= (uint64_t)1u << a;
+            }
+            first = 0;
         }
     }
     return off;
