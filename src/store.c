@@ -166,8 +166,9 @@ __attribute__((noinline)) void store_load(struct store *st, struct hal *hal, str
     /* Only the registers this variant keeps count. A stored value out of its register's
      * range (a foreign or corrupt image) stays at the factory value; so do both limits
      * if they would cross. */
-    for (uint8_t a = 0; a < REGS_SIZE; a++)
-        if (stored(r->board, a) && ((v.found >> a) & 1u) && regs_in_range(a, v.value[a]))
+    uint64_t found = v.found; /* bit a in bit 0 at address a: a shift by one a step */
+    for (uint8_t a = 0; a < REGS_SIZE; a++, found >>= 1)
+        if (stored(r->board, a) && (found & 1u) && regs_in_range(a, v.value[a]))
             regs_set(r, a, v.value[a]);
     if (regs_get(r, REG_CW_LIMIT) > regs_get(r, REG_CCW_LIMIT)) {
         regs_set(r, REG_CW_LIMIT, regs_default(r->board, REG_CW_LIMIT));
