@@ -78,31 +78,32 @@ struct frame_rec {
     uint8_t sum; /* a candidate: the stream's running sum before its first byte */
 } __attribute__((aligned(4)));
 
+/* Member order is code size: Thumb-2's 16-bit loads and stores reach a byte member at
+ * offsets below 32, a half-word below 64, a word below 128 (and the 32-bit forms cost
+ * twice the bytes). So the scalars the receiver touches on every byte come first, bytes,
+ * then half-words, then words, and the big arrays last. */
 struct frame_rx {
-    uint8_t buf[FRAME_SLOTS * FRAME_SLOT_BYTES]; /* the slots, or one §10 data block */
-    /* Records in stream order, a ring: [tail, ready) published frames for the main loop,
-     * [ready, end) the candidates in progress, the head first. The ISR writes ready, end
-     * and the records from ready on; the main loop writes tail. */
-    struct frame_rec rec[FRAME_RECORDS];
-    uint32_t end_us[FRAME_SLOTS + 1u]; /* per buffer: when its frames were published */
-    uint8_t rec_tail, rec_ready, rec_end;
-    /* Slots given back by the main loop: main writes free_head, ISR writes free_tail. */
-    uint8_t free_ring[FRAME_SLOTS];
-    uint8_t free_head, free_tail;
-    /* A §10 data block holds the slots (none may be taken): the ISR sets it, and clears
-     * it only if no frame was published from the block; else its last one's release
-     * does. block_slot: the slot its head began in, given back with it. */
-    uint8_t block_busy, block_slot;
     /* ISR-only state. Stream positions count the bytes received while there is a head
      * (a candidate is never more than a block behind), modulo 2^16. */
-    uint8_t spare[FRAME_SLOTS]; /* slots the ISR dropped, reused before free_ring */
-    uint8_t spare_count;
     uint8_t in_frame;  /* 1 while there is a head */
     uint8_t prev;      /* previous byte, for spotting D5 5D */
     uint8_t sum;       /* running sum of the bytes received while there is a head */
     uint8_t hsum;      /* the running sum before the head's first byte */
     uint8_t lost;      /* candidates inside the head that found no record */
-    uint8_t *hbuf;     /* the head's buffer */
+    uint8_t spare_count;
+    /* Records in stream order, a ring: [tail, ready) published frames for the main loop,
+     * [ready, end) the candidates in progress, the head first. The ISR writes ready, end
+     * and the records from ready on; the main loop writes tail. */
+    uint8_t rec_tail, rec_ready, rec_end;
+    /* Slots given back by the main loop: main writes free_head, ISR writes free_tail. */
+    uint8_t free_head, free_tail;
+    /* A §10 data block holds the slots (none may be taken): the ISR sets it, and clears
+     * it only if no frame was published from the block; else its last one's release
+     * does. block_slot: the slot its head began in, given back with it. */
+    uint8_t block_busy, block_slot;
+    uint8_t quiet_seen;  /* main loop: quiet_last is valid */
+    uint8_t free_ring[FRAME_SLOTS];
+    uint8_t spare[FRAME_SLOTS]; /* ISR: slots it dropped, reused before free_ring */
     uint16_t pos;      /* the next byte's stream position (while there is a head) */
     uint16_t hstart;   /* the head's first byte's */
     uint16_t hneed;    /* the head's length once LEN is known */
@@ -110,15 +111,19 @@ struct frame_rx {
     uint16_t len_at;   /* the newest candidate inside the head: its LEN byte's */
     uint16_t chk_at;   /* the nearest checksum byte of a candidate inside the head */
     uint16_t next_ev;  /* the nearest of the three: the one comparison most bytes cost */
+    uint8_t *hbuf;     /* the head's buffer */
     uint32_t last_us;  /* arrival (end) of the previous byte */
     uint32_t gap_us;   /* §1 idle-line time-out; main loop sets it, irq masked */
     uint32_t byte_us;  /* one byte-time: arrivals are byte ends, gaps are idle line */
     uint32_t quiet_us; /* gap_us + byte_us: arrival to arrival, the longest in a frame */
     uint32_t overruns; /* frames or candidates dropped for want of room */
     /* Main-loop state. */
-    struct frame view;   /* the frame frame_rx_peek() returned */
     uint32_t quiet_last; /* last_us when the line was found rested (frame_rx_quiet) */
-    uint8_t quiet_seen;  /* quiet_last is valid */
+    struct frame view;   /* the frame frame_rx_peek() returned */
+    uint32_t end_us[FRAME_SLOTS + 1u]; /* per buffer: when its frames were published */
+    struct frame_rec rec[FRAME_RECORDS];
+    /* The slots, or one §10 data block (word-aligned: copy_bytes moves words). */
+    uint8_t buf[FRAME_SLOTS * FRAME_SLOT_BYTES] __attribute__((aligned(4)));
 };
 
 /* Empty receiver with the time-out for the given baud rate. */

@@ -62,6 +62,9 @@ bool proto_speed_is_stop(uint16_t speed);
 /* Little-endian 16-bit value at p (§4: multi-byte values are L then H). */
 uint16_t proto_get16(const uint8_t *p);
 
+/* The same for a little-endian 32-bit value. */
+uint32_t proto_get32(const uint8_t *p);
+
 /* Plain 8-bit sum of n bytes (§2: not inverted). */
 uint8_t proto_sum(const uint8_t *p, uint16_t n);
 

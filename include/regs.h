@@ -96,16 +96,21 @@ enum reg_unit {
 #define REG_V_WH (REG_V(VARIANT_WRIST) | REG_V(VARIANT_FINGER))
 #define REG_V_NOT_WH (REG_V_ALL & ~REG_V_WH)
 
-/* Bit-fields: 8 bytes an entry instead of 12 (the table is in every image's flash). */
+/* 4 bytes an entry instead of 8 (the table is in every image's flash): bit-fields, and
+ * the default and the maximum in a byte each. No minimum in the table is above 1, no
+ * default above 255, and every maximum is either a byte (1-byte registers) or ends in
+ * 0xFF (2-byte registers: 0x7FFF, 0xFFFF), so max_code keeps the maximum's high byte
+ * there; regs_max() gives it back. REG_ROW() in regs.c encodes a row and refuses to
+ * compile one that does not fit. */
 struct reg_desc {
-    uint8_t size : 2; /* 1 or 2 at the register's first address; 0 elsewhere */
-    uint8_t access : 2;  /* enum reg_access */
-    uint8_t area : 2;    /* enum reg_area */
+    uint8_t size : 2;     /* 1 or 2 at the register's first address; 0 elsewhere */
+    uint8_t access : 2;   /* enum reg_access */
+    uint8_t area : 2;     /* enum reg_area */
+    uint8_t min : 1;      /* the lowest value written: 0 or 1 */
     uint8_t variants : 5; /* REG_V_ masks of the five variants */
     uint8_t def_src : 3;  /* enum reg_default */
-    uint16_t def;
-    uint16_t min;
-    uint16_t max;
+    uint8_t def;          /* factory value (REG_DEF_CONST) */
+    uint8_t max_code;     /* the maximum (regs_max()) */
 #if REGS_WITH_TEXT /* what only the docs and the host tools need: not in the images */
     uint8_t unit;
     uint8_t flags;
@@ -113,6 +118,12 @@ struct reg_desc {
     const char *doc;
 #endif
 };
+
+/* The highest value a register takes (d describes its first address). */
+static inline uint16_t regs_max(const struct reg_desc *d)
+{
+    return d->size == 2u ? (uint16_t)(((uint32_t)d->max_code << 8) | 0xFFu) : d->max_code;
+}
 
 /* The table, indexed by address. */
 extern const struct reg_desc regs_table[REGS_SIZE];

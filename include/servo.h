@@ -24,18 +24,14 @@ struct held_write {
     uint8_t data[REGS_SIZE];
 };
 
+/* Member order is code size: the 16-bit Thumb-2 loads and stores reach only small
+ * offsets (bytes < 32, half-words < 64, words < 128), so what the main loop touches most
+ * (the register table, the flags, the motion state) comes first and the big buffers (the
+ * receiver, the trajectory, the held write) last. */
 struct servo {
     struct hal *hal;
     const struct board *board;
-    struct frame_rx rx;
     struct regs regs;
-    struct link link;
-    struct held_write held;
-    struct traj traj;
-    struct store store;
-    struct motion motion;
-    struct safety safety;
-    struct update update; /* §10 session */
     uint8_t fw_version; /* register 2: the running image's version */
     uint8_t in_loader;  /* running update mode (loader.h), not the application */
     uint8_t restart;    /* restart once the answer in progress has left the wire */
@@ -43,6 +39,14 @@ struct servo {
     uint8_t confirmed;  /* boot_confirm() has nothing left to do (boot.h) */
     uint8_t hung;       /* host model: the image hangs at start (servo_power_on) */
     uint32_t start_us;  /* power-up of the application (or of the hang) */
+    struct safety safety;
+    struct motion motion;
+    struct link link;
+    struct update update; /* §10 session */
+    struct store store;
+    struct held_write held;
+    struct traj traj;
+    struct frame_rx rx;
 };
 
 /* Power-up: factory table with the stored EEPROM registers on top, settings in force,

@@ -72,7 +72,7 @@ static void resolution_written(struct servo *s, uint8_t old_res)
     for (size_t i = 0; i < sizeof rescaled; i++) {
         uint8_t a = rescaled[i];
         uint32_t v = ((uint32_t)regs_get(r, a) * old_res + new_res / 2u) / new_res;
-        regs_set(r, a, (uint16_t)(v > regs_table[a].max ? regs_table[a].max : v));
+        regs_set(r, a, (uint16_t)(v > regs_max(&regs_table[a]) ? regs_max(&regs_table[a]) : v));
     }
     traj_clear(&s->traj);
     /* A shaft within its limits stays within them: a limit rounds to the nearest new

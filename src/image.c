@@ -3,21 +3,16 @@
 
 #include "crc.h"
 #include "image.h"
-
-static uint32_t get32(const uint8_t *p)
-{
-    return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) |
-           ((uint32_t)p[3] << 24);
-}
+#include "proto.h"
 
 bool image_parse_info(const uint8_t *page0, struct image_info *out)
 {
     const uint8_t *info = &page0[IMAGE_INFO_OFFSET];
-    out->length = get32(&info[IMAGE_OFF_LENGTH]);
-    out->crc = get32(&info[IMAGE_OFF_CRC]);
-    out->model = (uint16_t)(info[IMAGE_OFF_MODEL] | ((uint32_t)info[IMAGE_OFF_MODEL + 1u] << 8));
+    out->length = proto_get32(&info[IMAGE_OFF_LENGTH]);
+    out->crc = proto_get32(&info[IMAGE_OFF_CRC]);
+    out->model = proto_get16(&info[IMAGE_OFF_MODEL]);
     out->version = info[IMAGE_OFF_VERSION];
-    return get32(&info[IMAGE_OFF_MAGIC]) == IMAGE_MAGIC && out->length >= IMAGE_MIN_BYTES &&
+    return proto_get32(&info[IMAGE_OFF_MAGIC]) == IMAGE_MAGIC && out->length >= IMAGE_MIN_BYTES &&
            out->length <= IMAGE_MAX_BYTES;
 }
 
@@ -63,7 +58,7 @@ bool image_write_page(struct hal *hal, uint8_t page, const uint8_t *data, uint16
     if (!hal_flash_erase(hal, page))
         return false;
     for (uint16_t off = 0; off < n; off = (uint16_t)(off + 2u)) {
-        uint16_t v = (uint16_t)(data[off] | ((uint32_t)data[off + 1u] << 8));
+        uint16_t v = proto_get16(&data[off]);
         if (v != 0xFFFFu && !hal_flash_program(hal, page, off, v))
             return false;
     }

@@ -186,8 +186,9 @@ void motion_start_homing(struct servo *s)
     motion_engage(s);
     m->mode = MOTION_HOME;
     uint32_t cpr = s->board->counts_per_rev;
+    /* Divided unsigned, as every 64-bit division of the image (scale.c, div_round). */
     homing_start(&m->home, m->ctl.switches, m->ctl.counts,
-                 (int64_t)s->board->homing_travel_deg * cpr / 360);
+                 (int64_t)((uint64_t)s->board->homing_travel_deg * cpr / 360u));
     m->lim.vmax = scale_dps_q24(cpr, s->board->homing_dps);
     uint8_t a = regs_ramp_addr(s->board);
     uint8_t acc = s->regs.mem[a], dec = s->regs.mem[a + 1u];

@@ -17,6 +17,21 @@ uint16_t proto_get16(const uint8_t *p)
 #endif
 }
 
+uint32_t proto_get32(const uint8_t *p)
+{
+#if __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+    /* One word load: the Cortex-M3 loads unaligned words with LDR (only LDRD, LDM and
+     * the exclusive loads fault, which a 4-byte copy never becomes), and the port leaves
+     * CCR.UNALIGN_TRP at its reset value, clear. */
+    uint32_t v;
+    __builtin_memcpy(&v, p, sizeof v);
+    return v;
+#else
+    return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) |
+           ((uint32_t)p[3] << 24);
+#endif
+}
+
 uint8_t proto_sum(const uint8_t *p, uint16_t n)
 {
     uint8_t sum = 0;

@@ -11,8 +11,9 @@
 #include "servo.h"
 
 /* Register 2: the version in the running image's info block. (A host test that starts
- * the application on blank flash has no image: the build's version then.) */
-static uint8_t running_version(struct hal *hal, const struct board *b)
+ * the application on blank flash has no image: the build's version then.) Not inlined:
+ * measured 16 B smaller as a call, at power-up only. */
+__attribute__((noinline)) static uint8_t running_version(struct hal *hal, const struct board *b)
 {
     struct image_info info;
     if (image_parse_info(hal_flash_page(hal, HAL_PAGE_APP), &info) &&

@@ -26,8 +26,12 @@ static uint16_t half_at(const uint8_t *page, uint16_t off)
 
 static uint32_t header_crc(uint32_t seq)
 {
-    const uint8_t bytes[6] = {(uint8_t)MAGIC, (uint8_t)(MAGIC >> 8), (uint8_t)seq,
-                              (uint8_t)(seq >> 8), (uint8_t)(seq >> 16), (uint8_t)(seq >> 24)};
+    /* Little-endian (regs.h: the targets are): MAGIC then seq copied from two words,
+     * not six byte stores. */
+    const uint32_t words[2] = {MAGIC, seq};
+    uint8_t bytes[6];
+    __builtin_memcpy(bytes, words, 2);
+    __builtin_memcpy(&bytes[2], &words[1], 4);
     return ~crc32_update(CRC32_INIT, bytes, sizeof bytes);
 }
 
@@ -35,9 +39,10 @@ static uint32_t header_crc(uint32_t seq)
  * 0xFFFF (an unwritten half-word) mapped away so it never matches. */
 static uint16_t record_check(uint16_t head, uint16_t value, uint32_t seq)
 {
-    const uint8_t bytes[8] = {(uint8_t)head, (uint8_t)(head >> 8), (uint8_t)value,
-                              (uint8_t)(value >> 8), (uint8_t)seq, (uint8_t)(seq >> 8),
-                              (uint8_t)(seq >> 16), (uint8_t)(seq >> 24)};
+    /* Little-endian, as header_crc: two words, not eight byte stores. */
+    const uint32_t words[2] = {head | ((uint32_t)value << 16), seq};
+    uint8_t bytes[8];
+    __builtin_memcpy(bytes, words, sizeof bytes);
     uint16_t crc = crc16_update(0xFFFFu, bytes, sizeof bytes);
     return crc == ERASED ? 0x7FFFu : crc;
 }
@@ -78,11 +83,14 @@ static bool slot_blank(const uint8_t *page, uint16_t off)
 
 /* Read the records of a committed page: complete groups only, in order, each address
  * keeping the last value a complete group gave it. Returns the offset of the first
- * blank slot (where the next record goes). Table-free: the bootloader uses it alone. */
+ * blank slot (where the next record goes). Table-free: the bootloader uses it alone.
+ * A group is applied once its last record is read, from its first one on: every record
+ * between them is valid (a torn one ends the group), so no copy of *v is needed (a
+ * struct store_values less on the stack of power-up). */
+_Static_assert(STORE_HEADER_BYTES > 0u, "scan: offset 0 is never a record");
 static uint16_t scan(const uint8_t *page, uint32_t seq, struct store_values *v)
 {
-    struct store_values group = *v;
-    bool in_group = false;
+    uint16_t first = 0; /* the open group's first record; 0: none (the header is there) */
     uint16_t off = STORE_HEADER_BYTES;
     for (; off + STORE_RECORD_BYTES <= HAL_FLASH_PAGE_BYTES; off += STORE_RECORD_BYTES) {
         if (slot_blank(page, off))
@@ -92,20 +100,18 @@ static uint16_t scan(const uint8_t *page, uint32_t seq, struct store_values *v)
         bool valid = half_at(page, off + 4u) == record_check(head, value, seq) &&
                      (tag & 0x3Fu) == TAG_PATTERN && addr < REGS_SIZE;
         if (!valid) {
-            in_group = false; /* a torn record ends the group it was in: dropped */
+            first = 0; /* a torn record ends the group it was in: dropped */
             continue;
         }
-        if (tag & TAG_FIRST) {
-            group = *v;
-            in_group = true;
-        }
-        if (!in_group)
-            continue; /* the rest of a group whose start was lost */
-        group.value[addr] = value;
-        group.found |= (uint64_t)1u << addr;
-        if (tag & TAG_LAST) {
-            *v = group;
-            in_group = false;
+        if (tag & TAG_FIRST)
+            first = off; /* a group left open before it is dropped */
+        if (first && (tag & TAG_LAST)) { /* else the rest of a group whose start was lost */
+            for (uint16_t at = first; at <= off; at += STORE_RECORD_BYTES) {
+                uint8_t a = page[at]; /* the head's low byte (little-endian): the address */
+                v->value[a] = half_at(page, at + 2u);
+                v->found |= (uint64_t)1u << a;
+            }
+            first = 0;
         }
     }
     return off;
@@ -135,13 +141,18 @@ void store_read(struct hal *hal, struct store_values *out)
         (void)scan(hal_flash_page(hal, p), seq, out);
 }
 
-/* The page after the active one in rotation: where the next compaction goes. */
-static uint8_t spare_page(const struct store *st)
+/* The page after the active one in rotation: where the next compaction goes. Not
+ * inlined: one copy of the modulo for its three callers (8 B). */
+__attribute__((noinline)) static uint8_t spare_page(const struct store *st)
 {
     return st->active == STORE_NO_PAGE ? 0u : (uint8_t)((st->active + 1u) % HAL_FLASH_PAGES);
 }
 
-void store_load(struct store *st, struct hal *hal, struct regs *r, uint32_t now_us)
+/* Not inlined: at power-up only, and its two copies of struct store_values (216 B) would
+ * otherwise sit in the frame of the main loop it is inlined into under -flto, under every
+ * call the loop makes for ever (the worst-case stack of make firmware). */
+__attribute__((noinline)) void store_load(struct store *st, struct hal *hal, struct regs *r,
+                                          uint32_t now_us)
 {
     memset(st, 0, sizeof *st);
     st->hal = hal;
@@ -155,8 +166,9 @@ void store_load(struct store *st, struct hal *hal, struct regs *r, uint32_t now_
     /* Only the registers this variant keeps count. A stored value out of its register's
      * range (a foreign or corrupt image) stays at the factory value; so do both limits
      * if they would cross. */
-    for (uint8_t a = 0; a < REGS_SIZE; a++)
-        if (stored(r->board, a) && ((v.found >> a) & 1u) && regs_in_range(a, v.value[a]))
+    uint64_t found = v.found; /* bit a in bit 0 at address a: a shift by one a step */
+    for (uint8_t a = 0; a < REGS_SIZE; a++, found >>= 1)
+        if (stored(r->board, a) && (found & 1u) && regs_in_range(a, v.value[a]))
             regs_set(r, a, v.value[a]);
     if (regs_get(r, REG_CW_LIMIT) > regs_get(r, REG_CCW_LIMIT)) {
         regs_set(r, REG_CW_LIMIT, regs_default(r->board, REG_CW_LIMIT));

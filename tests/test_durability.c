@@ -427,7 +427,7 @@ static uint16_t random_value(uint8_t a, const uint16_t *table)
         return (uint16_t)(below(2) ? 10u : 1u + below(255));
     if (a == REG_ID)
         return (uint16_t)below(PROTO_ID_MAX + 1u);
-    return (uint16_t)(d->min + below((uint32_t)d->max - d->min + 1u));
+    return (uint16_t)(d->min + below((uint32_t)regs_max(d) - d->min + 1u));
 }
 
 /* A WRITE-style payload for a random span of stored registers: addr, then bytes. Now

@@ -28,6 +28,22 @@ static void every_position_survives_the_round_trip(void **state)
     assert_true(scale_units_to_counts(deg, -90) == -4096);
 }
 
+/* Positions round half away from zero, on both sides of it (a position register reads
+ * the same magnitude either side of the zero). */
+static void positions_round_half_away_from_zero(void **state)
+{
+    (void)state;
+    struct scale half = {7200, 1}; /* one unit = 0.1 degree = 2 counts */
+    const int64_t counts[] = {-3, -2, -1, 0, 1, 2, 3, -4000000001LL, 4000000001LL};
+    const int32_t units[] = {-2, -1, -1, 0, 1, 1, 2, -2000000001, 2000000001};
+    for (size_t i = 0; i < sizeof counts / sizeof counts[0]; i++)
+        assert_int_equal(scale_counts_to_units(half, counts[i]), units[i]);
+    struct scale third = {1200, 1}; /* one unit = 1/3 count */
+    assert_true(scale_units_to_counts(third, -5) == -2); /* -1.67 */
+    assert_true(scale_units_to_counts(third, -4) == -1); /* -1.33 */
+    assert_true(scale_units_to_counts(third, 5) == 2);
+}
+
 static void speeds_are_capped_and_ramps_of_zero_are_steps(void **state)
 {
     (void)state;
@@ -89,6 +105,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(every_position_survives_the_round_trip),
+        cmocka_unit_test(positions_round_half_away_from_zero),
         cmocka_unit_test(speeds_are_capped_and_ramps_of_zero_are_steps),
         cmocka_unit_test(present_speed_reads_units_per_second_and_saturates),
         cmocka_unit_test(present_registers_land_where_the_variant_has_them),

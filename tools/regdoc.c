@@ -148,7 +148,7 @@ static int print_json(void)
                 printf("%u", (unsigned)regs_default(boards[v], a));
             vsep = ", ";
         }
-        printf("},\n     \"min\": %u, \"max\": %u, \"unit\": ", d->min, d->max);
+        printf("},\n     \"min\": %u, \"max\": %u, \"unit\": ", d->min, regs_max(d));
         if (unit_key(d->unit))
             regdoc_json_str(unit_key(d->unit));
         else
@@ -243,7 +243,7 @@ int main(int argc, char **argv)
         printf(" | ");
         print_defaults(a);
         if (d->access & REG_ACCESS_W)
-            printf(" | %u-%u", d->min, d->max);
+            printf(" | %u-%u", d->min, regs_max(d));
         else
             printf(" | read-only");
         printf(" | %s | %s | ", unit_text(d->unit), d->doc);

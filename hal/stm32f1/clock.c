@@ -56,50 +56,50 @@ static uint32_t adcpre(uint32_t pclk2)
 #endif
 }
 
+/* Each fall-back sets the source and its frequency where it is chosen: one store of
+ * each at the end rather than a switch over the source (code size, both images). */
 void clock_init(struct hal *h)
 {
     /* Two wait states and the prefetch buffer before anything runs faster than 24 MHz;
      * harmless at 8 MHz should the PLL never come. */
     REG_WRITE(FLASH->acr, FLASH_ACR_PRFTBE | FLASH_ACR_LATENCY(2));
     uint32_t bus = RCC_CFGR_PPRE1_DIV2; /* APB1 <= 36 MHz; AHB and APB2 undivided */
+    uint8_t source = CLOCK_HSE_PLL;
+    uint32_t hz = 72000000u;
 
-    h->clock_source = CLOCK_HSI;
     REG_SET(RCC->cr, RCC_CR_HSEON);
     if (wait_set(&RCC->cr, RCC_CR_HSERDY, RCC_CR_HSERDY, HSE_SPINS) &&
         pll_start(bus | adcpre(72000000u) | RCC_CFGR_PLLSRC_HSE | RCC_CFGR_PLLMUL(9))) {
-        h->clock_source = CLOCK_HSE_PLL;
         REG_SET(RCC->cr, RCC_CR_CSSON); /* a crystal that fails later raises NMI: reset */
     } else {
         REG_CLEAR(RCC->cr, RCC_CR_HSEON);
-        if (pll_start(bus | adcpre(64000000u) | RCC_CFGR_PLLMUL(16)))
-            h->clock_source = CLOCK_HSI_PLL;
-    }
-
-    switch (h->clock_source) {
-    case CLOCK_HSE_PLL:
-        h->sysclk_hz = 72000000u;
-        break;
-    case CLOCK_HSI_PLL:
-        h->sysclk_hz = 64000000u;
-        break;
-    default:
-        /* Plain HSI: no wait state, APB1 undivided. On silicon HSION cannot be off while
-         * HSI clocks the core, so a CR that reads 0 means there is no RCC at all. */
-        REG_WRITE(RCC->cfgr, adcpre(8000000u));
-        REG_WRITE(FLASH->acr, FLASH_ACR_PRFTBE | FLASH_ACR_LATENCY(0));
-        h->sysclk_hz = 8000000u;
-        if (REG_READ(RCC->cr) == 0u) {
-            h->clock_source = CLOCK_NO_RCC;
-            h->sysclk_hz = NO_RCC_HZ;
+        source = CLOCK_HSI_PLL;
+        hz = 64000000u;
+        if (!pll_start(bus | adcpre(64000000u) | RCC_CFGR_PLLMUL(16))) {
+            /* Plain HSI: no wait state, APB1 undivided. On silicon HSION cannot be off
+             * while HSI clocks the core, so a CR that reads 0 means there is no RCC. */
+            REG_WRITE(RCC->cfgr, adcpre(8000000u));
+            REG_WRITE(FLASH->acr, FLASH_ACR_PRFTBE | FLASH_ACR_LATENCY(0));
+            source = CLOCK_HSI;
+            hz = 8000000u;
+            if (REG_READ(RCC->cr) == 0u) {
+                source = CLOCK_NO_RCC;
+                hz = NO_RCC_HZ;
+            }
         }
-        break;
     }
-    h->pclk2_hz = h->sysclk_hz;
-    bool div2 = h->sysclk_hz > 36000000u && h->clock_source != CLOCK_NO_RCC;
-    h->pclk1_hz = div2 ? h->sysclk_hz / 2u : h->sysclk_hz;
-    /* APB1 timers run at twice PCLK1 whenever APB1 is divided (RM0008 §7.2). */
-    h->tim_apb1_hz = div2 ? h->sysclk_hz : h->pclk1_hz;
-    h->cycles_per_us = h->sysclk_hz / 1000000u;
+    h->clock_source = source;
+    h->sysclk_hz = hz;
+    h->pclk2_hz = hz;
+    /* APB1 is divided (bus) only on the PLL's 64 and 72 MHz: the 8 MHz HSI and QEMU's
+     * 24 MHz never exceed 36 MHz. */
+    _Static_assert(NO_RCC_HZ <= 36000000u, "QEMU's clock: APB1 undivided");
+    bool div2 = hz > 36000000u;
+    h->pclk1_hz = div2 ? hz / 2u : hz;
+    /* APB1 timers run at twice PCLK1 whenever APB1 is divided (RM0008 §7.2): at the
+     * system clock either way. */
+    h->tim_apb1_hz = hz;
+    h->cycles_per_us = hz / 1000000u;
 }
 
 void clock_tick_start(struct hal *h)

@@ -107,8 +107,9 @@ void uart_start(struct hal *h, struct servo *s)
 
 /* USART1 runs from PCLK2 with 16x oversampling: BRR = PCLK2 / baud, rounded, and at
  * least 16 (USARTDIV = BRR / 16 >= 1: the fastest rate is PCLK2 / 16, 500 kBd on the
- * 8 MHz HSI). */
-static uint32_t brr_for(const struct hal *h, uint32_t baud)
+ * 8 MHz HSI). Not inlined: its two callers each got a copy of the division and the
+ * clamps (24 B). */
+__attribute__((noinline)) static uint32_t brr_for(const struct hal *h, uint32_t baud)
 {
     uint32_t div = (h->pclk2_hz + baud / 2u) / baud;
     return div < 16u ? 16u : div > 0xFFFFu ? 0xFFFFu : div;
