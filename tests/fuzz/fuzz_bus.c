@@ -4,8 +4,8 @@
  *
  * Built two ways from this one source (fuzz.h): the libFuzzer target of `make fuzz`, and
  * the replay driver fuzz_replay_bus that CTest runs over tests/fuzz/corpus/fuzz_bus/ and
- * tests/fuzz/findings/fuzz_bus/. It plays up to 4 s of bus time per input (about 100
- * inputs per second); the fast targets (fuzz_frame, fuzz_store, fuzz_update,
+ * tests/fuzz/findings/fuzz_bus/. It plays up to 6 s of bus time per input (MAX_VIRTUAL_US;
+ * about 100 inputs per second); the fast targets (fuzz_frame, fuzz_store, fuzz_update,
  * fuzz_planner) cover the same surfaces without the real-time part.
  *
  * Input: byte 0 picks the board (byte 0 % 5: base, foot, arm, wrist, finger) and the
