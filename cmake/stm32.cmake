@@ -9,7 +9,6 @@
 # arithmetic a compile error, and the link checks below fail the build if a soft-float
 # helper, the heap, or flash-resident code on the interrupt path sneaks into an image, or
 # if it outgrows its flash and RAM budget.
-set(SERVO_BOARDS base foot arm wrist finger)
 if(NOT BOARD IN_LIST SERVO_BOARDS)
     message(FATAL_ERROR "BOARD=${BOARD}: choose one of ${SERVO_BOARDS}")
 endif()
@@ -172,7 +171,7 @@ add_executable(${boot}.elf ${SERVO_PORT_SOURCES}
     src/update.c
     src/loader.c
     src/servo.c
-    board/boards.c)
+    ${SERVO_BOARD_SOURCES})
 target_include_directories(${boot}.elf PRIVATE include hal hal/stm32f1 board/${BOARD})
 target_compile_options(${boot}.elf PRIVATE ${SERVO_SIZE_OPTIONS_BOOT})
 target_compile_definitions(${boot}.elf PRIVATE SERVO_BOOTLOADER SERVO_BOARD=board_${BOARD}
