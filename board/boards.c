@@ -6,8 +6,7 @@
 
 #include "board.h"
 
-#define BOARD_ADDRESS(name) &board_##name,
-const struct board *const board_all[BOARD_COUNT] = {BOARD_LIST(BOARD_ADDRESS)};
+const struct board *const board_all[BOARD_COUNT] = BOARD_ALL_INIT;
 
 const struct board *board_find(const char *name)
 {

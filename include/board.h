@@ -6,7 +6,7 @@
 
 #include <stdint.h>
 
-#include "board_list.h"
+#include "board_list.h" /* BOARD_COUNT and the boards, from cmake/boards.cmake */
 
 /* The motor variants of PROTOCOL.md §8. */
 enum variant {
@@ -45,11 +45,8 @@ struct board {
                                 * into a motor at rest (current limiting) */
 };
 
-/* The reference boards, board_<name> each (board/<name>/board.c), and all of them in the
- * order of cmake/boards.cmake (host tools, tests and fuzzers iterate board_all). */
-#define BOARD_DECLARE(name) extern const struct board board_##name;
-BOARD_LIST(BOARD_DECLARE)
-#undef BOARD_DECLARE
+/* All the reference boards (board_<name> each, declared in board_list.h) in the order of
+ * cmake/boards.cmake: host tools, tests and fuzzers iterate board_all. */
 extern const struct board *const board_all[BOARD_COUNT];
 
 /* The reference board of a variant name ("arm"), or 0 if there is none. */

@@ -4,8 +4,11 @@
 #ifndef BOARD_LIST_H
 #define BOARD_LIST_H
 
-/* X(name) for every board: struct board board_<name> in board/<name>/board.c. */
-#define BOARD_LIST(X) X(base) X(foot) X(arm) X(wrist) X(finger)
 #define BOARD_COUNT 5u
+
+/* struct board board_<name> of each board/<name>/board.c (include/board.h), and
+ * all of them, in order, for board_all's initializer (board/boards.c). */
+extern const struct board board_base, board_foot, board_arm, board_wrist, board_finger;
+#define BOARD_ALL_INIT {&board_base, &board_foot, &board_arm, &board_wrist, &board_finger}
 
 #endif

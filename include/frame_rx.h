@@ -39,7 +39,7 @@
 #include "proto.h"
 
 #define FRAME_SLOTS 4u    /* power of two: head buffers, and frames waiting in them */
-#define FRAME_BYTES (2u + PROTO_LEN_MAX) /* ID, LEN and the LEN bytes it counts */
+#define FRAME_BYTES 257u  /* ID, LEN and the LEN bytes it counts (INS, params, CHK) */
 #define FRAME_BLOCK_BYTES PROTO_UPDATE_DATA_FRAME /* ID, LEN, a §10 data block, CHK */
 #define FRAME_BLOCK FRAME_SLOTS /* the block's buffer index: all the slots, end to end */
 /* A slot's buffer: a frame, and a quarter of a §10 data block. */

@@ -27,10 +27,13 @@ def header(root=ROOT):
             " * header` (make docs) from cmake/boards.cmake, the one board list; do not edit.\n"
             " * CTest boards.list fails when it drifts. */\n"
             "#ifndef BOARD_LIST_H\n#define BOARD_LIST_H\n\n"
-            "/* X(name) for every board: struct board board_<name> in board/<name>/board.c. */\n"
-            "#define BOARD_LIST(X) %s\n"
-            "#define BOARD_COUNT %du\n\n#endif\n" % (" ".join("X(%s)" % b for b in boards),
-                                                    len(boards)))
+            "#define BOARD_COUNT %du\n\n"
+            "/* struct board board_<name> of each board/<name>/board.c (include/board.h), and\n"
+            " * all of them, in order, for board_all's initializer (board/boards.c). */\n"
+            "extern const struct board %s;\n"
+            "#define BOARD_ALL_INIT {%s}\n\n#endif\n" % (
+                len(boards), ", ".join("board_%s" % b for b in boards),
+                ", ".join("&board_%s" % b for b in boards)))
 
 
 if __name__ == "__main__":
