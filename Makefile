@@ -3,10 +3,11 @@
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 
 .PHONY: all deps host stm32 qemu qemu-image test lint fuzz bench demo demo-bytes docs clean \
-	firmware flash studio
+	firmware flash studio boards
 
-# Firmware images: every reference board (board/<name>/), or the one `make flash` writes.
-BOARDS := base foot arm wrist finger
+# Firmware images: every reference board (board/<name>/, listed once in
+# cmake/boards.cmake), or the one `make flash` writes.
+BOARDS := $(shell sed -n 's/^set(SERVO_BOARDS \(.*\))$$/\1/p' cmake/boards.cmake)
 BOARD ?= arm
 PORT ?= /dev/ttyUSB0
 fw_build = { test -f build/stm32-$(1)/CMakeCache.txt || cmake -S . -B build/stm32-$(1) \
@@ -108,9 +109,14 @@ demo-bytes: host
 	build/host/tools/demo
 
 docs: host
+	/usr/bin/python3 tools/boards.py header > include/board_list.h
 	build/host/tools/regdoc > docs/registers.md
 	build/host/tools/regdoc --json > tools/python/servobus/registers.json
 	build/host/tools/regdoc --protocol-json > tools/python/servobus/protocol.json
+
+# The boards make firmware builds (CTest boards.list compares them with the list).
+boards:
+	@echo $(BOARDS)
 
 clean:
 	rm -rf build

@@ -3,7 +3,8 @@
  * each board/<name>/board_pins.h after it has chosen its fittings: BOARD_POSITION_POT
  * (potentiometer or encoder), BOARD_PHOTO (homing switches or none) and
  * BOARD_CURRENT_MA_FS (the shunt). Model number, range, limits and bus defaults are in
- * board/boards.c, the single source of those. */
+ * board/<name>/board.c, the single source of those (it takes BOARD_PHOTO from
+ * board_pins.h). */
 #ifndef BOARD_REF_PCB_H
 #define BOARD_REF_PCB_H
 

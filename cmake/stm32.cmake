@@ -9,7 +9,6 @@
 # arithmetic a compile error, and the link checks below fail the build if a soft-float
 # helper, the heap, or flash-resident code on the interrupt path sneaks into an image, or
 # if it outgrows its flash and RAM budget.
-set(SERVO_BOARDS base foot arm wrist finger)
 if(NOT BOARD IN_LIST SERVO_BOARDS)
     message(FATAL_ERROR "BOARD=${BOARD}: choose one of ${SERVO_BOARDS}")
 endif()
@@ -22,7 +21,7 @@ set(SERVO_LDPARTS ${SERVO_LDDIR}/${BOARD_MCU}-memory.ld ${SERVO_LDDIR}/${BOARD_M
 set(SERVO_BOOT_ORIGIN 0x08000000)
 set(SERVO_BOOT_BYTES 8192)
 set(SERVO_APP_ORIGIN 0x08002000)
-set(SERVO_APP_MAX_BYTES 26620) # image.h IMAGE_MAX_BYTES: the 26 KiB slot less the mark
+set(SERVO_APP_MAX_BYTES 26620) # image.h IMAGE_MAX_BYTES (image_info.c asserts they agree)
 
 # Passes of -Os that make these images larger, found by building with each one off
 # (make firmware's table): jump threading and the dominator optimisations duplicate
@@ -142,7 +141,8 @@ target_include_directories(${image}.elf PRIVATE hal/stm32f1 board/${BOARD})
 target_compile_options(${image}.elf PRIVATE ${SERVO_SIZE_OPTIONS_APP})
 target_link_libraries(${image}.elf PRIVATE servo_core)
 target_compile_definitions(${image}.elf PRIVATE SERVO_BOARD=board_${BOARD}
-                           SERVO_MODEL=${SERVO_MODEL} SERVO_FW_VERSION=${SERVO_FW_VERSION})
+                           SERVO_MODEL=${SERVO_MODEL} SERVO_FW_VERSION=${SERVO_FW_VERSION}
+                           SERVO_APP_MAX_BYTES=${SERVO_APP_MAX_BYTES})
 servo_link_and_check(${image} ${SERVO_LDDIR}/${BOARD_MCU}.ld
     "${CMAKE_BINARY_DIR}/CMakeFiles/servo_bus.dir;${CMAKE_BINARY_DIR}/CMakeFiles/servo_motion.dir;${CMAKE_BINARY_DIR}/CMakeFiles/${image}.elf.dir"
     -DGOAL_FLASH=16384)
@@ -178,7 +178,7 @@ add_executable(${boot}.elf ${SERVO_PORT_SOURCES}
     src/update.c
     src/loader.c
     src/servo.c
-    board/boards.c)
+    ${SERVO_BOARD_SOURCES})
 target_include_directories(${boot}.elf PRIVATE include hal hal/stm32f1 board/${BOARD})
 target_compile_options(${boot}.elf PRIVATE ${SERVO_SIZE_OPTIONS_BOOT})
 target_compile_definitions(${boot}.elf PRIVATE SERVO_BOOTLOADER SERVO_BOARD=board_${BOARD}

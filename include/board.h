@@ -6,6 +6,8 @@
 
 #include <stdint.h>
 
+#include "board_list.h" /* BOARD_COUNT and the boards, from cmake/boards.cmake */
+
 /* The motor variants of PROTOCOL.md §8. */
 enum variant {
     VARIANT_BASE,   /* B: chassis wheel, speed mode always */
@@ -25,14 +27,15 @@ enum variant {
 #define BOARD_MODEL_FINGER 0x5205u
 
 struct board {
-    const char *name;          /* "base", "foot", "arm", "wrist", "finger" */
+    const char *name;          /* its folder's name, board/<name>/ (cmake/boards.cmake) */
     uint8_t variant;           /* enum variant */
     uint16_t model_number;     /* registers 0-1 */
     uint16_t max_angle_ddeg;   /* mechanical range in 0.1 degree; 0 = continuous */
     uint8_t current_limit;     /* register 12 default, 0.1 A */
     uint32_t default_baud;     /* what register 4 = 0 means */
     uint8_t return_delay;      /* register 5 default, x 500 us */
-    uint8_t photo_switches;    /* 1 if the board has the two homing switches */
+    uint8_t photo_switches;    /* 1 if the board has the two homing switches: BOARD_PHOTO of
+                                * its board_pins.h, which the port builds from too */
     uint32_t counts_per_rev;   /* position sensor counts per output turn */
     uint16_t supply_min_mv;    /* under-voltage below this */
     uint16_t supply_max_mv;    /* over-voltage above this */
@@ -42,10 +45,8 @@ struct board {
                                 * into a motor at rest (current limiting) */
 };
 
-extern const struct board board_base, board_foot, board_arm, board_wrist, board_finger;
-
-/* Every reference board, in that order (host tools and tests iterate it). */
-#define BOARD_COUNT 5u
+/* All the reference boards (board_<name> each, declared in board_list.h) in the order of
+ * cmake/boards.cmake: host tools, tests and fuzzers iterate board_all. */
 extern const struct board *const board_all[BOARD_COUNT];
 
 /* The reference board of a variant name ("arm"), or 0 if there is none. */

@@ -24,11 +24,11 @@ struct control {
     int64_t sw_edge;  /* counts where the switches last changed (not debounce-late) */
 };
 
-/* What bounds the drive: register 12 (0.1 A, 0 = no limit) and the board's duty per A. */
 /* Counts: a shaft this near a resting reference is there (the integral rests, and the
  * motion layer counts it as settled). */
 #define CONTROL_HOLD_BAND 1
 
+/* What bounds the drive: register 12 (0.1 A, 0 = no limit) and the board's duty per A. */
 struct control_limits {
     uint8_t current_limit;
     uint16_t duty_per_amp;

@@ -13,6 +13,8 @@
 #define PROTO_ID_BROADCAST 0xFEu
 #define PROTO_ID_MAX 0xFDu /* highest ID of one servo */
 #define PROTO_ID_INVALID 0xFFu
+#define PROTO_LEN_MAX 255u                   /* LEN counts INS (or ERR), params and CHK */
+#define PROTO_PARAMS_MAX (PROTO_LEN_MAX - 2u) /* so a packet's parameters: at most 253 */
 
 /* Instructions (§4). */
 #define INS_PING 0x01u
@@ -38,7 +40,7 @@
 
 /* Longest status packet: header, ID, LEN, ERR, a READ of the whole table, checksum. */
 #define PROTO_STATUS_MAX (6u + REGS_SIZE)
-_Static_assert(REGS_SIZE + 2u <= 0xFFu, "an answer's LEN must count a READ of the whole table");
+_Static_assert(REGS_SIZE <= PROTO_PARAMS_MAX, "an answer's LEN counts a READ of the whole table");
 
 /* The §10 update frames, shared by the receiver (the data block is the one frame longer
  * than LEN can say) and the update session: CUSTOM with sub-command 0xFC (enter) or 0xFE

@@ -71,6 +71,7 @@ enum reg_default {
     REG_DEF_RETURN_DELAY, /* board return delay */
     REG_DEF_MAX_ANGLE,    /* board max angle in position units */
     REG_DEF_CURRENT,      /* board current limit */
+    REG_DEF_COUNT
 };
 
 /* What a value means, for the docs and the host tools. */
@@ -90,7 +91,7 @@ enum reg_unit {
 
 /* Variant masks. */
 #define REG_V(v) (1u << (v))
-#define REG_V_ALL 0x1Fu
+#define REG_V_ALL ((1u << VARIANT_COUNT) - 1u)
 #define REG_V_B REG_V(VARIANT_BASE)
 #define REG_V_NOT_B (REG_V_ALL & ~REG_V_B)
 #define REG_V_WH (REG_V(VARIANT_WRIST) | REG_V(VARIANT_FINGER))
@@ -118,6 +119,10 @@ struct reg_desc {
     const char *doc;
 #endif
 };
+/* The bit-fields' widths are set by hand: each must hold what it stores. */
+_Static_assert(VARIANT_COUNT <= 5, "reg_desc.variants has a bit per variant");
+_Static_assert(REG_DEF_COUNT <= 8, "reg_desc.def_src holds every enum reg_default");
+_Static_assert(REG_ACCESS_RW <= 3 && REG_AREA_RAM <= 3, "reg_desc.access and .area: 2 bits");
 
 /* The highest value a register takes (d describes its first address). */
 static inline uint16_t regs_max(const struct reg_desc *d)

@@ -6,11 +6,13 @@
 #include <stdbool.h>
 #include <stdint.h>
 
+#include "proto.h"
 #include "regs.h"
 
-/* One packet carries at most 84 points in the 3-byte form (LEN 255), 63 in the 4-byte
- * form; the store holds whatever one packet can carry. */
-#define TRAJ_POINTS_MAX 84u
+/* One packet carries at most 84 points in the 3-byte form (a count byte and 3 bytes a
+ * point in PROTO_PARAMS_MAX), 63 in the 4-byte form; the store holds whatever one packet
+ * can carry. */
+#define TRAJ_POINTS_MAX ((PROTO_PARAMS_MAX - 1u) / 3u)
 
 struct traj_point {
     uint16_t angle; /* position units, clamped to the angle limits */

@@ -24,6 +24,8 @@
 
 struct servo;
 
+_Static_assert(REGS_SIZE <= 64u, "a hook's acts_on and reads are 64-bit masks of addresses");
+
 /* One module's part in register writes, as the docs and the tests see it; its check and
  * act functions are named beside it in the one list in write.c (HOOKS). */
 struct write_hook {

@@ -11,6 +11,7 @@
 #define OFF_SEQ 2u
 #define OFF_CRC 6u
 #define OFF_COMMIT 10u
+_Static_assert(STORE_HEADER_BYTES == OFF_COMMIT + 2u, "the header ends with the commit mark");
 #define COMMITTED 0x0000u
 #define ERASED 0xFFFFu
 

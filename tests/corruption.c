@@ -6,7 +6,7 @@
  * what a CRC-16 (CCITT) would let through. Fails if any packet left a register out of its
  * range, CW > CCW, a read-only register changed, or the motor outside its travel.
  *
- * Usage: corruption [N] [SEED]   (N = 1000000 in make bench, fewer in CTest) */
+ * Usage: corruption [N] [SEED]   (N = 1000000 in make bench and in CTest corruption.inject) */
 #include <inttypes.h>
 #include <stdbool.h>
 #include <stdint.h>

@@ -144,8 +144,6 @@ static void issue19_commissioning_survives_a_cut(void **state)
 #define REFILL STORE_REFILL_US
 #define GUARD_US 5000u /* keep model events this far from a refill instant */
 
-static const struct board *const variants[] = {&board_base, &board_foot, &board_arm,
-                                               &board_wrist, &board_finger};
 
 static uint32_t rng;
 static uint32_t rnd(void)
@@ -723,7 +721,7 @@ static void one_sequence(uint32_t seed)
     rng = seed * 2654435761u + 0x9E3779B9u;
     if (rng == 0u)
         rng = 1;
-    bd = variants[seed % 5u];
+    bd = board_all[seed % BOARD_COUNT];
     vbus_init(&bus);
     bus.host_baud = bd->default_baud;
     vbus_add(&bus, bd, 0);

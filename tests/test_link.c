@@ -105,9 +105,8 @@ static void baud_table(void **state)
     (void)state;
     const uint32_t table[] = {0, 2400, 9600, 38400, 115200, 256000,
                               460800, 896000, 921600, 1280000, 1792000};
-    const struct board *bs[] = {&board_base, &board_foot, &board_arm, &board_wrist,
-                                &board_finger};
-    for (size_t b = 0; b < 5; b++) {
+    const struct board *const *bs = board_all;
+    for (size_t b = 0; b < BOARD_COUNT; b++) {
         assert_int_equal(link_baud(bs[b], 0), b == 0 ? 115200 : 9600);
         for (uint8_t c = 1; c <= 10; c++)
             assert_int_equal(link_baud(bs[b], c), table[c]);

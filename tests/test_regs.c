@@ -501,12 +501,11 @@ static void first_invalid_register(void **state)
 static void loader_rules_are_the_tables(void **state)
 {
     (void)state;
-    static const struct board *const all[] = {&board_base, &board_foot, &board_arm,
-                                              &board_wrist, &board_finger};
+    const struct board *const *all = board_all;
     for (uint32_t v = 0; v <= 0xFFFFu; v++) {
         assert_int_equal(regs_in_range(REG_ID, (uint16_t)v), v <= PROTO_ID_MAX);
         assert_int_equal(regs_in_range(REG_RETURN_DELAY, (uint16_t)v), v <= 0xFFu);
-        for (uint8_t i = 0; i < 5u; i++)
+        for (uint8_t i = 0; i < BOARD_COUNT; i++)
             assert_int_equal(regs_in_range(REG_BAUD_RATE, (uint16_t)v),
                              v <= 0xFFu && link_baud(all[i], (uint8_t)v) != 0u);
     }

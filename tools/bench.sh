@@ -61,7 +61,7 @@ echo
 echo "== motion layer, host x86-64 instructions (callgrind; own ideal-motor HAL)"
 for w in tick replan; do
     fn=motion_poll
-    [ "$w" = replan ] && fn=motion_on_write
+    [ "$w" = replan ] && fn=command_written
     valgrind --tool=callgrind --toggle-collect="$fn" --callgrind-out-file="$out/cg" \
         "$build/tools/bench_motion" "$w" 20000 >/dev/null 2>&1
     awk -v w="$w" '/^summary:/ { printf "per %-7s %6.0f   (target %s)\n", w, $2 / 20000,

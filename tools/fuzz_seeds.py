@@ -13,7 +13,10 @@ import math
 import os
 import sys
 
-BOARDS = ["base", "foot", "arm", "wrist", "finger"]
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import boards  # noqa: E402  (tools/boards.py: the one board list, cmake/boards.cmake)
+
+BOARDS = boards.names()
 
 
 def escape(data):

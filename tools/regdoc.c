@@ -4,6 +4,7 @@
  * (regdoc --json > tools/python/servobus/registers.json; a CTest checks the copy); with
  * --protocol-json the instruction table (protocol_json.c). */
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "board.h"
@@ -12,9 +13,16 @@
 #include "regs.h"
 #include "write.h"
 
-static const struct board *const boards[VARIANT_COUNT] = {
-    &board_base, &board_foot, &board_arm, &board_wrist, &board_finger,
-};
+/* The reference board of each variant: the first of board_all with that variant (the
+ * register table's columns are variants, not boards). */
+static const struct board *variant_board(int v)
+{
+    for (uint32_t i = 0; i < BOARD_COUNT; i++)
+        if (board_all[i]->variant == v)
+            return board_all[i];
+    fprintf(stderr, "regdoc: no board of variant %d in cmake/boards.cmake\n", v);
+    exit(1);
+}
 static const char variant_letter[VARIANT_COUNT] = {'B', 'F', 'A', 'W', 'H'};
 
 static const char *unit_text(uint8_t unit)
@@ -42,9 +50,9 @@ static void print_defaults(uint8_t addr)
     /* One value if every applicable variant agrees, else one per variant. */
     int first = -1, same = 1;
     for (int v = 0; v < VARIANT_COUNT; v++) {
-        if (!regs_applicable(boards[v], addr))
+        if (!regs_applicable(variant_board(v), addr))
             continue;
-        int def = regs_default(boards[v], addr);
+        int def = regs_default(variant_board(v), addr);
         if (first < 0)
             first = def;
         else if (def != first)
@@ -56,9 +64,9 @@ static void print_defaults(uint8_t addr)
     }
     const char *sep = "";
     for (int v = 0; v < VARIANT_COUNT; v++) {
-        if (!regs_applicable(boards[v], addr))
+        if (!regs_applicable(variant_board(v), addr))
             continue;
-        printf("%s%c: %u", sep, variant_letter[v], (unsigned)regs_default(boards[v], addr));
+        printf("%s%c: %u", sep, variant_letter[v], (unsigned)regs_default(variant_board(v), addr));
         sep = ", ";
     }
 }
@@ -98,7 +106,7 @@ static int print_json(void)
     printf("{\n  \"generator\": \"regdoc --json (from src/regs.c; do not edit)\",\n"
            "  \"table_size\": %u,\n  \"variants\": [\n", REGS_SIZE);
     for (int v = 0; v < VARIANT_COUNT; v++) {
-        const struct board *b = boards[v];
+        const struct board *b = variant_board(v);
         printf("    {\"name\": \"%s\", \"letter\": \"%c\", \"model_number\": %u, "
                "\"default_baud\": %u, \"return_delay\": %u, \"max_angle_ddeg\": %u, "
                "\"photo_switches\": %s}%s\n",
@@ -133,19 +141,19 @@ static int print_json(void)
         const char *vsep = "";
         for (int v = 0; v < VARIANT_COUNT; v++)
             if (d->variants & REG_V(v)) {
-                printf("%s\"%s\"", vsep, boards[v]->name);
+                printf("%s\"%s\"", vsep, variant_board(v)->name);
                 vsep = ", ";
             }
         printf("], \"default\": {");
         vsep = "";
         for (int v = 0; v < VARIANT_COUNT; v++) {
-            if (!regs_applicable(boards[v], a))
+            if (!regs_applicable(variant_board(v), a))
                 continue;
-            printf("%s\"%s\": ", vsep, boards[v]->name);
+            printf("%s\"%s\": ", vsep, variant_board(v)->name);
             if (d->access == REG_ACCESS_W)
                 printf("null");
             else
-                printf("%u", (unsigned)regs_default(boards[v], a));
+                printf("%u", (unsigned)regs_default(variant_board(v), a));
             vsep = ", ";
         }
         printf("},\n     \"min\": %u, \"max\": %u, \"unit\": ", d->min, regs_max(d));

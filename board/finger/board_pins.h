@@ -1,6 +1,6 @@
 /* board/finger/board_pins.h - the reference finger board (1 A limit): which fittings
- * of the shared reference PCB (board/ref_pcb.h) it carries. board_finger in board/boards.c
- * holds its model number, range and limits. */
+ * of the shared reference PCB (board/ref_pcb.h) it carries. board_finger in board.c beside it
+ * holds its model number, range and limits, and takes BOARD_PHOTO from here. */
 #ifndef BOARD_PINS_H
 #define BOARD_PINS_H
 

@@ -1,6 +1,6 @@
 /* board/foot/board_pins.h - the reference foot board (4 A limit): which fittings
- * of the shared reference PCB (board/ref_pcb.h) it carries. board_foot in board/boards.c
- * holds its model number, range and limits. */
+ * of the shared reference PCB (board/ref_pcb.h) it carries. board_foot in board.c beside it
+ * holds its model number, range and limits, and takes BOARD_PHOTO from here. */
 #ifndef BOARD_PINS_H
 #define BOARD_PINS_H
 

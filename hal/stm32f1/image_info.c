@@ -25,6 +25,11 @@ _Static_assert(offsetof(struct info_block, magic) == IMAGE_OFF_MAGIC &&
                    offsetof(struct info_block, version) == IMAGE_OFF_VERSION,
                "image.h layout");
 _Static_assert(SERVO_FW_VERSION >= 0 && SERVO_FW_VERSION <= 255, "register 2 is a byte");
+/* full_image.py takes the slot's size from cmake/stm32.cmake, which defines it for this
+ * file: it must be the one the bootloader and the update session check (image.h). */
+#ifdef SERVO_APP_MAX_BYTES
+_Static_assert(SERVO_APP_MAX_BYTES == IMAGE_MAX_BYTES, "cmake/stm32.cmake: IMAGE_MAX_BYTES");
+#endif
 
 /* Little-endian on the Cortex-M3, as image.h wants. */
 __attribute__((section(".image_info"), used)) static const struct info_block image_info = {

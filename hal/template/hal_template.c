@@ -18,9 +18,14 @@
  *   - No floating point, no heap; every wait on hardware is bounded by a time-out, so
  *     a missing peripheral (or an emulator without it) never hangs the boot.
  *   - Firmware update (PROTOCOL.md §10): the application is linked for the application
- *     slot; a bootloader at the reset address calls boot_install() (boot.h) before
- *     anything else, then starts the application or runs the loader (loader.h) in the
- *     same way as main() runs the servo (hal/stm32f1/boot_main.c). */
+ *     slot; a bootloader at the reset address calls boot_start() (boot.h) before
+ *     anything else: it installs a staged update (boot_install()) and records the start
+ *     in the boot record, then the bootloader starts the application with the watchdog
+ *     running, or (false) runs the loader (loader.h) in the same way as main() runs the
+ *     servo (hal/stm32f1/boot_main.c). Calling boot_install() alone records no start, so
+ *     an image that never confirms (boot_confirm(), servo_poll() does it) would be
+ *     started again for ever instead of falling back to update mode. The port maps
+ *     HAL_PAGE_BOOTREC for the boot record. */
 #include "hal.h"
 
 struct hal {

@@ -4,13 +4,13 @@
  *
  * Built two ways from this one source (fuzz.h): the libFuzzer target of `make fuzz`, and
  * the replay driver fuzz_replay_bus that CTest runs over tests/fuzz/corpus/fuzz_bus/ and
- * tests/fuzz/findings/fuzz_bus/. It plays up to 4 s of bus time per input (about 100
- * inputs per second); the fast targets (fuzz_frame, fuzz_store, fuzz_update,
+ * tests/fuzz/findings/fuzz_bus/. It plays up to 6 s of bus time per input (MAX_VIRTUAL_US;
+ * about 100 inputs per second); the fast targets (fuzz_frame, fuzz_store, fuzz_update,
  * fuzz_planner) cover the same surfaces without the real-time part.
  *
- * Input: byte 0 picks the board (byte 0 % 5: base, foot, arm, wrist, finger) and the
- * faults the servo's sensors see (byte 0 / 5, bits: 0-1 supply low, high or dropping
- * low then high; 2 over-temperature (90 C); 3 a current spike; 4 the shaft jammed; 5 a
+ * Input: byte 0 picks the board (byte 0 % BOARD_COUNT, in board_all's order) and the
+ * faults the servo's sensors see (byte 0 / BOARD_COUNT, bits: 0-1 supply low, high or
+ * dropping low then high; 2 over-temperature (90 C); 3 a current spike; 4 the shaft jammed; 5 a
  * cold sensor (-30 C), with bit 2 one past the register's range (150 C)), present in
  * every other half second of virtual time from the second one on; byte 1 the servo's ID
  * (0: factory ID 1). The rest is the wire, from the host:

@@ -9,11 +9,11 @@
  * wrong on purpose where the input says; data blocks carry the pages of an image the
  * input describes (own model or another, any length, CRC-32 right or not).
  *
- * Input: byte 0 picks the board (% 5) and, if (byte 0 / 5) is odd, an application slot
- * erased at the factory (the servo starts in update mode); then operations, one byte o
- * each, with operands (missing bytes read as 0); a frame goes straight to
- * loader_update_frame, or if o & 0x80 through the receiver (D5 5D first) to the main
- * loop of whatever runs (servo_step):
+ * Input: byte 0 picks the board (% BOARD_COUNT, board_all) and, if the quotient is odd,
+ * an application slot erased at the factory (the servo starts in update mode); then
+ * operations, one byte o each, with operands (missing bytes read as 0); a frame goes
+ * straight to loader_update_frame, or if o & 0x80 through the receiver (D5 5D first) to
+ * the main loop of whatever runs (servo_step):
  *   (o & 7F) % 10 = 0  ENTER f
  *            1  HEADER f [l0 l1 l2 l3]: the image's length, or (f & 4) the one given
  *            2  END OF BATCH f: the all-zero header
@@ -82,6 +82,7 @@ const char fuzz_target_name[] = "fuzz_update";
 static struct hal hal;
 static struct servo servo;
 static const struct board *board;
+static uint8_t board_no; /* its index in board_all */
 /* An image the host sends, padded to the slot (and flipped where the input says), with
  * the CRC-16s of its pages as they are needed. Two are kept, so neither is built twice
  * in a row: the one every input starts with, and the last other one. */
@@ -508,7 +509,8 @@ static void make_image(struct fuzz_reader *r, bool first)
     uint8_t pad = fuzz_get8(r), x = fuzz_get8(r);
     uint16_t model = board->model_number;
     if ((m & 3u) == 1u)
-        model = board_all[(board->variant + 1u + (m >> 3) % 4u) % BOARD_COUNT]->model_number;
+        model = board_all[(board_no + 1u + (m >> 3) % (BOARD_COUNT - 1u)) % BOARD_COUNT]
+                    ->model_number; /* another board's */
     else if ((m & 3u) == 2u)
         model = (uint16_t)(model ^ (m | 1u) << 4);
     uint32_t span = (m & WHOLE_SLOT) == WHOLE_SLOT ? IMAGE_MAX_BYTES - IMAGE_MIN_BYTES + 1u
@@ -566,6 +568,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     uint8_t bi = data[0] % BOARD_COUNT;
     unsigned start_no = bi * 2u + ((data[0] / BOARD_COUNT) & 1u);
     board = board_all[bi];
+    board_no = bi;
     input_no++;
     boot_cut = 0;
     make_image(&(struct fuzz_reader){0, 0}, true);

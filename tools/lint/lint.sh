@@ -27,7 +27,7 @@ common=(--quiet --std=c11 --inline-suppr --error-exitcode=0 -DSERVO_FW_VERSION=1
         --suppressions-list=tools/lint/cppcheck-suppress.txt)
 step "cppcheck: src/ hal/host/ board/"
 cppcheck "${common[@]}" --enable=warning,style,performance,portability \
-    -Iinclude -Ihal -Ihal/host -DREGS_WITH_TEXT=1 src hal/host board/boards.c \
+    -Iinclude -Ihal -Ihal/host -DREGS_WITH_TEXT=1 src hal/host board/boards.c board/*/board.c \
     --template='{file}:{line}: {severity}: {message} [{id}]' 2>"$out/cppcheck.log"
 verdict "$out/cppcheck.log"
 

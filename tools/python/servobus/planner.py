@@ -16,7 +16,7 @@ SHIFT = 24
 ONE = 1 << SHIFT
 TICKS_PER_S = 1000          # SCALE_TICKS_PER_S
 MAX_SPEED_DPS = 1080        # SCALE_MAX_SPEED_DPS
-COUNTS_PER_REV = 16384      # every board of board/boards.c
+COUNTS_PER_REV = 16384      # every board of board/<name>/board.c
 INT32_MAX = (1 << 31) - 1
 
 

@@ -1,0 +1,15 @@
+/* board/arm/board.c - the reference arm board (PROTOCOL.md §8): what the core and the
+ * protocol need of it (struct board, include/board.h). Its fittings come from
+ * board_pins.h beside it, which the port builds from too, so the two cannot disagree: a
+ * board whose core thought it had photo switches and whose port did not would never
+ * find one while homing, and one the other way round would move unhomed. */
+#include "board.h"
+#include "board_pins.h"
+
+const struct board board_arm = {
+    .name = "arm", .variant = VARIANT_ARM, .model_number = BOARD_MODEL_ARM,
+    .max_angle_ddeg = 3600, .current_limit = 30, .default_baud = 9600,
+    .return_delay = 16, .photo_switches = BOARD_PHOTO, .counts_per_rev = 16384,
+    .supply_min_mv = 9000, .supply_max_mv = 15000, .homing_dps = 60, .homing_travel_deg = 800,
+    .duty_per_amp = 166, /* 2 ohm at 12 V */
+};
