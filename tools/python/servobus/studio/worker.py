@@ -59,6 +59,7 @@ class Studio:
         self.commands = 0           # actions of the user that put something on the wire
         self.nsample = 0
         self.slow = {}              # homing and photo switches from the last full sample
+        self.gone_cause = ""        # why the bus is gone, in the bus's words (once)
         self.live = Live(self)      # the dashboard and the plot of any register (live.py)
         self.state = {
             "port": bus.port, "baud": bus.baud, "tcp": bus.is_tcp, "link": "connected",
@@ -123,7 +124,7 @@ class Studio:
         to run when it comes back."""
         if self.bus is None:
             raise BusGone("The bus is gone (%s): nothing was sent. Try again once the "
-                          "header says connected." % self.state["link"])
+                          "header says connected." % self.gone_cause)
 
     def submit(self, fn, what=None, motion=False, prio=1):
         """Queue fn(bus) for the worker; its Future (BusGone at once without a bus)."""
@@ -139,7 +140,7 @@ class Studio:
         broadcast's job (its result: the time it was sent)."""
         if self.bus is None:
             raise BusGone("The bus is gone (%s): STOP cannot reach the servos — switch "
-                          "their power off if one moves." % self.state["link"])
+                          "their power off if one moves." % self.gone_cause)
         self.stop_event.set()
         self.queue.cancel(lambda job: job.motion, Refused(
             "Cancelled by STOP before it was sent: nothing of it was sent.", 409))
@@ -246,18 +247,24 @@ class Studio:
             pass
         self.bus = None
         self.stop_event.clear()
-        self.state["link"] = "%s — reconnecting" % in_words(e)
+        self._gone(e)
         self.state["link_ok"] = False
         self.queue.cancel(lambda job: True, BusGone(
             "The bus went away before this was sent (%s): nothing of it was sent." % e))
         self.log("lost the bus: %s" % e, ok=False)
+
+    def _gone(self, e):
+        """Say why the bus is gone: the header's sentence, and the cause alone for the
+        refusals, which begin "The bus is gone" themselves (never twice)."""
+        self.gone_cause = " ".join(str(e).split()).rstrip(".")
+        self.state["link"] = "%s — reconnecting" % in_words(e).rstrip(".")
 
     def _reconnect(self):
         time.sleep(RECONNECT_S)
         try:
             bus = Bus(self.port, baud=self.state["baud"])
         except (ServoBusError, OSError) as e:
-            self.state["link"] = "%s — reconnecting" % in_words(e)
+            self._gone(e)
             self.changed()
             return
         self._own(bus)
