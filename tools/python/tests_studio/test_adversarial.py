@@ -32,3 +32,53 @@ def test_bus_gone_is_said_once_in_each_refusal(sim_factory, studio_factory):
     assert "reconnecting" in st["link"]  # the page's cue that it comes back
     for entry in st["log"][-3:]:
         assert entry["text"].lower().count("the bus is gone") == 1, entry
+
+
+def ready(t, n):
+    return t.api.wait(lambda st: len(st["servos"]) == n and not st["busy"] and
+                      st["selected"] is not None, what="the start-up scan")
+
+
+# servoctl commands the console does not run: each refused in words that name where the
+# studio does it (before: "'update x.bin' is not hex bytes", or "Not a command")
+ELSEWHERE = [("studio", "this is the studio"), ("update fw.bin", "Firmware panel"),
+             ("servoctl update fw.bin", "Firmware panel"),
+             ("set-id 5", "ID & reset panel"), ("--id 2 set-id 5", "ID & reset panel"),
+             ("reset", "asks first"), ("config save f.json", "Configuration files"),
+             ("scan", "Scan panel"), ("monitor", "Live plot")]
+
+
+def test_console_names_where_a_command_it_does_not_take_is_done(tapped):
+    t = tapped("2:foot")
+    ready(t, 1)
+    mark = t.tap.mark()
+    for text, words in ELSEWHERE:
+        status, answer = t.api.post("/api/console", {"text": text})
+        assert status == 400, (text, answer)
+        assert "is not taken in the console" in answer["error"], (text, answer)
+        assert words in answer["error"] and "not hex" not in answer["error"], answer
+    status, answer = t.api.post("/api/console", {"text": "gte present_position"})
+    assert status == 400 and "'gte' is neither a command" in answer["error"], answer
+    # --wait would hold the worker (the live values, every other tab's action) for up to
+    # 60 s: refused, nothing sent (before: `home --wait` held another tab's Set 8.7 s)
+    for text in ("--id 2 move 10deg --speed 30deg/s --wait",
+                 "--id 2 traj 10:30 --wait-timeout 5"):
+        status, answer = t.api.post("/api/console", {"text": text})
+        assert status == 400 and "does not hold the bus" in answer["error"], answer
+    time.sleep(0.3)
+    assert not_sampling(t.tap, mark) == []
+
+
+def test_console_help_is_answered_not_printed_on_the_studios_terminal(tapped):
+    # before: argparse printed the help on the studio process's stdout (a pipe nobody
+    # reads under a service manager or the tests: enough of them blocks the server) and
+    # the page got "Not a command"
+    t = tapped("2:foot")
+    ready(t, 1)
+    for text, first in (("-h", "usage: servoctl [-h]"), ("--help", "usage: servoctl"),
+                        ("--id 2 get --help", "usage: servoctl get")):
+        status, answer = t.api.post("/api/console", {"text": text})
+        assert status == 200 and answer["output"].startswith(first), (text, answer)
+        assert answer["frames"] == []
+    assert t.studio.stop() == 0
+    assert "usage:" not in t.studio.stdout, "the help went to the studio's terminal"

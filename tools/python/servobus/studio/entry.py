@@ -27,6 +27,36 @@ _MOTION_INS = (P.ACTION, P.TRAJ_ACTION, P.START_END, P.CUSTOM)
 _STATIC_LOCKOUT = {"status_return_level": lambda v: v == 0, "baud_rate": lambda v: True}
 
 
+# servoctl's commands that the console does not run, and where the studio does them
+ELSEWHERE = {
+    "studio": "this is the studio (one per bus)",
+    "update": "use the Firmware panel, which checks the whole image first",
+    "set-id": "use the ID & reset panel, which checks that the new ID is free first",
+    "reset": "use the ID & reset panel, which asks first (or send the RESET frame in hex, "
+             "which asks too)",
+    "config": "use the Configuration files panel (save, restore, diff)",
+    "scan": "use the Scan panel (Scan again, or every baud)",
+    "monitor": "use the Live plot, Plot any register or All servos (the studio reads "
+               "the servos all the time)",
+}
+# servoctl's options that take a value (before or after the command)
+_VALUED = ("--port", "--baud", "--id", "--timeout")
+
+
+def _command_word(words):
+    """The command of a servoctl command line (its first word that is neither an option
+    nor an option's value), or None."""
+    skip = False
+    for w in words:
+        if skip:
+            skip = False
+        elif w.startswith("-"):
+            skip = w in _VALUED
+        else:
+            return w
+    return None
+
+
 def _whole_registers(sid, fields):
     """{name: value} of a WRITE's data; 400 for bytes that are not whole registers."""
     named = {}
@@ -61,10 +91,9 @@ class Entry(Handler):
                 raise Refused("Type a frame in hex (D5 5D 01 04 02 24 02) or a servoctl "
                               "command (get present_position). Nothing was sent.", 400)
             self.not_busy()
-            words = text.split()
-            if words[0] == "servoctl" or words[0] in COMMANDS or words[0].startswith("-"):
-                return await self._command(text, confirm)
-            return await self._frame(text, confirm)
+            if F.looks_like_hex(text):
+                return await self._frame(text, confirm)
+            return await self._command(text, confirm)
         return await self.handle(request, go)
 
     # ---- a frame in hex -------------------------------------------------------------
@@ -147,17 +176,34 @@ class Entry(Handler):
         except ValueError as e:
             raise Refused("The command does not parse: %s. Nothing was sent." % e, 400) \
                 from None
-        words = words[1:] if words[0] == "servoctl" else words
+        words = words[1:] if words and words[0] == "servoctl" else words
         refused = [w for w in words if re.match(r"--(port|baud|force|yes)\b", w)]
         if refused:
             raise Refused("%s: the console talks on the studio's own bus, and asks before "
                           "a setting that locks a servo out (no --force). Nothing was "
                           "sent." % refused[0], 400)
-        err = io.StringIO()
-        with contextlib.redirect_stderr(err):
+        waits = [w for w in words if re.match(r"--wait\b", w)]
+        if waits:
+            raise Refused("%s: the console does not hold the bus while a servo moves (the "
+                          "studio's other actions and its live values would wait behind "
+                          "it); the studio keeps reading the servo: watch the Live plot "
+                          "or All servos. Nothing was sent." % waits[0], 400)
+        command = _command_word(words)
+        if command in ELSEWHERE:
+            raise Refused("`%s` is not taken in the console: %s. Nothing was sent." % (
+                command, ELSEWHERE[command]), 400)
+        if command is not None and command not in COMMANDS and \
+                not any(w in ("-h", "--help") for w in words):
+            raise Refused("'%s' is neither a command the console takes (%s) nor a frame in "
+                          "hex (D5 5D 02 04 02 24 02). Nothing was sent." % (
+                              command, ", ".join(COMMANDS)), 400)
+        err, out = io.StringIO(), io.StringIO()
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out):
             try:
                 args = build_parser().parse_args(words)
-            except SystemExit:
+            except SystemExit as e:
+                if e.code == 0 and out.getvalue():  # -h: the help, nothing sent
+                    return ok(output=out.getvalue(), frames=[])
                 args = None
         if args is None or args.command not in COMMANDS:
             why = err.getvalue().strip().splitlines()
