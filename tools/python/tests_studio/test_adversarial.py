@@ -82,3 +82,32 @@ def test_console_help_is_answered_not_printed_on_the_studios_terminal(tapped):
         assert answer["frames"] == []
     assert t.studio.stop() == 0
     assert "usage:" not in t.studio.stdout, "the help went to the studio's terminal"
+
+
+def test_hand_edited_config_and_group_moves_are_refused_in_words(tapped):
+    from servobus import config as C
+    from servobus import RangeError
+    t = tapped("1:arm", "2:foot", "7:foot")
+    ready(t, 3)
+    mark = t.tap.mark()
+    status, answer = t.api.post("/api/config/save", {"id": 2})
+    assert status == 200, answer
+    doc = answer["config"]
+    for variant in (["foot"], {"foot": 1}):  # before: HTTP 500 (unhashable)
+        bad = dict(doc, variant=variant)
+        for path, body in (("/api/config/diff", {"a": bad, "b": 2}),
+                           ("/api/config/restore", {"config": bad, "id": 7})):
+            status, answer = t.api.post(path, body)
+            assert status == 400 and "variant" in answer["error"], (path, answer)
+        try:  # servoctl config restore FILE: the same check, a ServoBusError
+            C.check(bad)
+            raise AssertionError("a list for the variant passed the check")
+        except RangeError as e:
+            assert "variant" in str(e)
+    # two keys for one servo: before, one servo moved, to the last goal, though the
+    # form asks for at least two
+    status, answer = t.api.post("/api/group", {"goals": {"2": 10, "2.0": 20},
+                                               "speed": 30})
+    assert status == 400 and "ID 2 is given twice" in answer["error"], answer
+    time.sleep(0.3)
+    assert [raw for _, raw in not_sampling(t.tap, mark) if raw[4] != 0x02] == []

@@ -83,9 +83,13 @@ class Panels(Handler):
                 raise Refused("Pick at least two servos (goals: {ID: degrees}). Nothing was "
                               "sent.", 400)
             self.not_busy()
-            values = {}
+            values, keys = {}, {}
             for key, deg in body["goals"].items():
                 sid = V.servo_id(key, "ID")
+                if sid in keys:  # '1' and '1.0': one servo, two goals
+                    raise Refused("ID %d is given twice ('%s' and '%s'): give each servo "
+                                  "one goal. Nothing was sent." % (sid, keys[sid], key), 400)
+                keys[sid] = key
                 values[sid] = self._goal(sid, deg, body["speed"])
             job = _group_job(values, how)
             await self.st.call(job, "IDs %s: move together (%s)" % (
