@@ -111,3 +111,48 @@ def test_hand_edited_config_and_group_moves_are_refused_in_words(tapped):
     assert status == 400 and "ID 2 is given twice" in answer["error"], answer
     time.sleep(0.3)
     assert [raw for _, raw in not_sampling(t.tap, mark) if raw[4] != 0x02] == []
+
+
+def test_a_restore_that_changes_the_id_is_followed_by_the_studio(tapped):
+    # before: the foot answered at ID 7, the studio kept ID 2 in its list and selected,
+    # sampled it ("No answer from ID 2") and refused Set ID back to 2 ("taken")
+    t = tapped("1:arm", "2:foot")
+    ready(t, 2)
+    assert t.api.post("/api/select", {"id": 2})[0] == 200
+    status, answer = t.api.post("/api/config/save", {"id": 2})
+    doc = answer["config"]
+    doc["settings"]["id"] = 7
+    status, answer = t.api.post("/api/config/restore", {"config": doc, "id": 2,
+                                                        "with_id": True})
+    assert status == 200 and answer["changes"] == {"id": 7}, answer
+    st = t.api.state()
+    assert [s["id"] for s in st["servos"]] == [1, 7] and st["selected"] == 7, st
+    mark = t.tap.mark()
+    time.sleep(1.0)
+    st = t.api.state()
+    assert not st["sample_error"], st["sample_error"]
+    sampled = [raw[2] for _, raw in t.tap.packets(mark) if raw[4] == 0x02]
+    assert sampled.count(7) > 5 and 2 not in sampled, sampled  # it samples ID 7
+    assert any("restore 1 setting (id)" in e["text"] for e in st["log"]), st["log"]
+    status, answer = t.api.post("/api/setid", {"new_id": 2})  # and back, from the panel
+    assert status == 200, answer
+
+
+def test_a_restore_that_changes_the_baud_is_followed_on_a_serial_bus(tapped):
+    # through servo-sim's baud model (rfc2217://, 9600 baud): before, the studio stayed
+    # at 9600 and lost the foot it had just restored
+    t = tapped("2:foot", rfc2217=True)
+    ready(t, 1)
+    status, answer = t.api.post("/api/config/save", {"id": 2})
+    doc = answer["config"]
+    doc["settings"]["baud_rate"] = 4  # 115200 baud
+    body = {"config": doc, "id": 2, "with_baud": True}
+    status, answer = t.api.post("/api/config/restore", body)
+    assert status == 409 and "115200" in answer["confirm"], answer  # it asks first
+    status, answer = t.api.post("/api/config/restore", dict(body, confirm=True))
+    assert status == 200 and answer["changes"] == {"baud_rate": 4}, answer
+    st = t.api.state()
+    assert st["baud"] == 115200 and st["servos"][0]["baud"] == 115200, st
+    time.sleep(1.0)
+    st = t.api.state()
+    assert not st["sample_error"], st["sample_error"]

@@ -159,12 +159,28 @@ class Panels(Handler):
                 raise Refused("%s Confirm to restore it anyway. Nothing was written." %
                               sentence(reasons[0]), 409, confirm=sentence(reasons[0]))
             if changes:
-                await self.st.call(lambda bus: C.restore(bus, sid, changes),
-                                   "ID %d: restore %d settings (%s)" % (
-                                       sid, len(changes), ", ".join(changes)))
+                await self.st.call(self._restore_job(sid, changes),
+                                   "ID %d: restore %d setting%s (%s)" % (
+                                       sid, len(changes), "" if len(changes) == 1 else
+                                       "s", ", ".join(changes)))
+            if "id" in changes:  # the servo answers at its new ID: the studio follows it
+                self.st.renumbered(sid, changes["id"])
+                if self.st.selected == sid:
+                    await self.st.call(self.st.select(changes["id"]))
+                self.st.changed()
             self.st.table_due = 0.0
             return ok(changes=changes, writes=len(runs))
         return await self.handle(request, go)
+
+    def _restore_job(self, sid, changes):
+        st = self.st
+
+        def job(bus):
+            variant = bus.variant(sid)  # while it answers at this ID and baud
+            C.restore(bus, sid, changes)
+            if "baud_rate" in changes:  # written last (plan_write), at the new ID if any
+                st.follow_baud(bus, changes.get("id", sid), changes["baud_rate"], variant)
+        return job
 
     async def config_diff(self, request):
         async def go(body):

@@ -17,7 +17,7 @@ import threading
 import time
 
 from .. import Bus, Interrupted, ServoBusError
-from ..registers import variant_by_model
+from ..registers import baud_of_code, variant_by_model
 from . import sampler
 from .console import Recorder
 from .live import Live
@@ -273,6 +273,29 @@ class Studio:
         self.state["link_ok"] = True
         self.table_due = 0.0
         self.log("reconnected to %s" % self.port)
+
+    def renumbered(self, sid, new):
+        """Servo sid answers at ID new now (Set ID, a restore with the ID): the list and
+        the per-servo state follow it. Call from the event loop."""
+        for s in self.state["servos"]:
+            if s["id"] == sid:
+                s["id"] = new
+        self.state["servos"].sort(key=lambda s: s["id"])
+        if sid in self.resolutions:
+            self.resolutions[new] = self.resolutions.pop(sid)
+
+    def follow_baud(self, bus, sid, code, variant=None):
+        """Servo sid (of variant, default: as the Bus knows it) answers at baud code from
+        now on (worker thread): on a serial bus the host follows it, as after a write of
+        baud_rate."""
+        if bus.is_tcp:
+            return
+        baud = baud_of_code(code, variant or bus.variant(sid))
+        bus.set_baud(baud)
+        self.state["baud"] = baud
+        for s in self.state["servos"]:
+            if s["id"] == sid:
+                s["heard_baud"] = s["baud"] = baud
 
     def select(self, sid):
         """The job that makes sid the servo every panel shows."""
