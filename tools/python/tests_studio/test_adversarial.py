@@ -156,3 +156,35 @@ def test_a_restore_that_changes_the_baud_is_followed_on_a_serial_bus(tapped):
     time.sleep(1.0)
     st = t.api.state()
     assert not st["sample_error"], st["sample_error"]
+
+
+def test_a_clamped_goal_is_said_by_the_api_and_the_page(tapped, page):
+    # before: "Moving ID 2 to 350 deg." while the servo went to its limit, 300 deg
+    t = tapped("2:foot", "7:foot")
+    ready(t, 2)
+    status, answer = t.api.post("/api/write", {"id": 2, "name": "ccw_angle_limit",
+                                               "value": "300"})
+    assert status == 200, answer
+    move = {"goal": 350, "speed": 90, "acc": 36, "dec": 36, "id": 2}
+    status, answer = t.api.post("/api/move", move)
+    assert status == 200 and answer["clamped"] == {
+        "asked": 350, "held": 300, "limits": [0, 300]}, answer
+    assert "outside its angle limits (0..300 deg): it goes to 300 deg" in answer["note"]
+    status, answer = t.api.post("/api/move", dict(move, goal=200))  # within: no note
+    assert status == 200 and "note" not in answer, answer
+    for how in ("action", "sync"):  # a group move says which servo clamped
+        status, answer = t.api.post("/api/group", {"goals": {"2": 350, "7": 100},
+                                                   "speed": 60, "how": how})
+        assert status == 200 and list(answer["clamped"]) == ["2"], answer
+        assert "ID 2: 350 deg is outside" in answer["note"], answer
+    p = page(t.studio.url)
+    p.wait_scanned(2)
+    p.select(2)
+    p.panel("motion")
+    for box, text in (("mv-goal", "350"), ("mv-speed", "90"), ("mv-acc", "36"),
+                      ("mv-dec", "36")):
+        p.by("#" + box).clear()
+        p.by("#" + box).send_keys(text)
+    p.click("mv-go")
+    p.wait(lambda: "it goes to 300 deg instead" in p.message(),
+           what="the page saying the goal was clamped")

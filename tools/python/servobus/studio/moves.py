@@ -12,6 +12,17 @@ from .jobs import Refused
 ACC_UNITS = "x10 deg/s^2"
 
 
+def held_goal(bus, sid, goal):
+    """After a goal was written (worker thread): None if the servo holds it, else (held,
+    asked, CW limit, CCW limit) in position units — the servo clamps a goal to its angle
+    limits (registers 6-9) and says nothing."""
+    held = bus.read(sid, "goal_position")
+    if held == goal:
+        return None
+    lim = bus.read_many(sid, ["cw_angle_limit", "ccw_angle_limit"])
+    return held, goal, lim["cw_angle_limit"], lim["ccw_angle_limit"]
+
+
 class Moves(Handler):
     """POST /api/stop, /api/move, /api/speed, /api/home, /api/traj."""
 
@@ -53,12 +64,28 @@ class Moves(Handler):
                     # goal register (and the plot) shows the target
                     bus.write(sid, {"goal_position": goal, "moving_speed": speed,
                                     "acceleration": acc, "deceleration": dec})
-                else:  # the base: ramps are EEPROM registers, CUSTOM MOVE carries them
-                    bus.move_absolute(sid, goal, speed, acc, dec)
-            await self.st.call(job, "ID %d: move to %s deg at %s deg/s (acc %d, dec %d)" % (
-                sid, body["goal"], body["speed"], acc, dec), motion=True)
-            return ok()
+                    return held_goal(bus, sid, goal)
+                # the base: ramps are EEPROM registers, CUSTOM MOVE carries them; its
+                # goal is relative to where it is (no angle limits to clamp to)
+                bus.move_absolute(sid, goal, speed, acc, dec)
+                return None
+            clamp = await self.st.call(job, "ID %d: move to %s deg at %s deg/s (acc %d, "
+                                       "dec %d)" % (sid, body["goal"], body["speed"], acc,
+                                                    dec), motion=True)
+            return ok(**self.clamped(sid, clamp))
         return await self.handle(request, go)
+
+    def clamped(self, sid, clamp):
+        """The answer's fields for a goal the servo clamped (clamp: held_goal()'s), with
+        the sentence the page shows."""
+        if not clamp:
+            return {}
+        held, asked, lo, hi = (round(v * self.st.resolutions.get(sid, 10) * 0.1, 2)
+                               for v in clamp)
+        return {"clamped": {"asked": asked, "held": held, "limits": [lo, hi]},
+                "note": "ID %d: %g deg is outside its angle limits (%g..%g deg): it goes "
+                        "to %g deg instead (the servo clamps the goal)." % (
+                            sid, asked, lo, hi, held)}
 
     async def speed(self, request):
         async def go(body):

@@ -92,10 +92,14 @@ class Panels(Handler):
                 keys[sid] = key
                 values[sid] = self._goal(sid, deg, body["speed"])
             job = _group_job(values, how)
-            await self.st.call(job, "IDs %s: move together (%s)" % (
+            clamps = await self.st.call(job, "IDs %s: move together (%s)" % (
                 ", ".join(map(str, sorted(values))), "REG WRITE, broadcast ACTION"
                 if how == "action" else "SYNC WRITE"), motion=True)
-            return ok(ids=sorted(values))
+            from .moves import Moves
+            said = {sid: Moves(self.st).clamped(sid, c) for sid, c in sorted(clamps.items())}
+            extra = {"note": " ".join(n["note"] for n in said.values())} if said else {}
+            return ok(ids=sorted(values),
+                      clamped={sid: n["clamped"] for sid, n in said.items()}, **extra)
         return await self.handle(request, go)
 
     def _goal(self, sid, deg, speed):
@@ -199,11 +203,21 @@ class Panels(Handler):
 
 
 def _group_job(values, how):
+    """The job of a group move; {ID: held_goal()} for the servos that clamped their
+    goal to their angle limits."""
+    from .moves import held_goal
+
     def job(bus):
         if how == "sync":
             bus.sync_write("goal_position", values)
-            return
+        else:
+            for sid, v in sorted(values.items()):
+                bus.reg_write(sid, v)  # goal and speed (30-33), held until the ACTION
+            bus.action(P.BROADCAST)  # every one of them starts at this packet
+        clamps = {}
         for sid, v in sorted(values.items()):
-            bus.reg_write(sid, v)  # goal and speed (30-33), held until the ACTION
-        bus.action(P.BROADCAST)  # every one of them starts at this packet
+            c = held_goal(bus, sid, v["goal_position"])
+            if c:
+                clamps[sid] = c
+        return clamps
     return job

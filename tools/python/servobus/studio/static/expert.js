@@ -242,7 +242,7 @@ $("dash-go").addEventListener("click", async () => {
   const goals = {};
   for (const b of document.querySelectorAll(".dash-pick:checked")) goals[b.value] = $("dash-goal-" + b.value).value;
   const r = await post("/api/group", { goals, speed: $("dash-speed").value, how: $("dash-how").value });
-  if (r) say("IDs " + r.ids.join(", ") + " started together.", "ok");
+  if (r) say("IDs " + r.ids.join(", ") + " started together." + (r.note ? " " + r.note : ""), r.note ? "" : "ok");
 });
 
 // ---- trajectory editor ------------------------------------------------------------------

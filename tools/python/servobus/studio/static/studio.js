@@ -302,7 +302,8 @@ $("stop").addEventListener("click", async () => {
 $("mv-go").addEventListener("click", async () => {
   const r = await post("/api/move", { goal: $("mv-goal").value, speed: $("mv-speed").value,
     acc: $("mv-acc").value, dec: $("mv-dec").value });
-  if (r) say("Moving ID " + selected() + " to " + $("mv-goal").value + " deg.", "ok");
+  // a goal outside the angle limits is clamped by the servo: the server says so
+  if (r) say(r.note || "Moving ID " + selected() + " to " + $("mv-goal").value + " deg.", r.note ? "" : "ok");
 });
 $("sp-go").addEventListener("click", async () => {
   if (await post("/api/speed", { speed: $("sp-speed").value }))
