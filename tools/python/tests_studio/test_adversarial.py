@@ -188,3 +188,59 @@ def test_a_clamped_goal_is_said_by_the_api_and_the_page(tapped, page):
     p.click("mv-go")
     p.wait(lambda: "it goes to 300 deg instead" in p.message(),
            what="the page saying the goal was clamped")
+
+
+def test_each_tab_keeps_its_own_plot_traces_and_dashboard(tapped):
+    # before: the register plot's picks and the dashboard's on/off were the studio's, not
+    # the tab's: a second tab's Add trace replaced the first tab's traces (its lines
+    # went blank under a header still counting them), and leaving the dashboard in one
+    # tab froze it in the other
+    import asyncio
+    import aiohttp
+    t = tapped("1:arm", "2:foot")
+    ready(t, 2)
+    temp, pos = "2.present_temperature", "1.turned_angle"
+
+    async def scenario():
+        h = {"X-Studio-Token": t.api.token}
+        async with aiohttp.ClientSession() as s:
+            a = await s.ws_connect(t.studio.base + "/ws?tab=A", headers=h)
+            b = await s.ws_connect(t.studio.base + "/ws?tab=B", headers=h)
+
+            async def post(path, body):
+                async with s.post(t.studio.base + path, json=body, headers=h) as r:
+                    assert r.status == 200, await r.text()
+
+            async def keys_seen(ws, kind, n=5):
+                """The value keys of the next n messages of kind on ws."""
+                seen = []
+                while len(seen) < n:
+                    m = await ws.receive_json(timeout=5)
+                    if m["type"] == kind:
+                        seen.append(set(m.get("v", {})) if kind == "scope" else m)
+                return seen
+            await post("/api/scope", {"tab": "A", "picks": [
+                {"id": 2, "register": "present_temperature"}]})
+            await post("/api/scope", {"tab": "B", "picks": [
+                {"id": 1, "register": "turned_angle"}]})
+            await keys_seen(a, "scope", 2)  # what was pushed before B's traces
+            assert all(temp in k for k in await keys_seen(a, "scope"))  # A's kept
+            await b.close()  # B's traces go with its tab
+            await asyncio.sleep(0.5)
+            await keys_seen(a, "scope", 3)
+            assert all(k == {temp} for k in await keys_seen(a, "scope")), "B's read on"
+            await post("/api/dashboard", {"tab": "A", "on": True})
+            c = await s.ws_connect(t.studio.base + "/ws?tab=C", headers=h)
+            await post("/api/dashboard", {"tab": "C", "on": True})
+            await post("/api/dashboard", {"tab": "C", "on": False})  # C leaves it
+            await keys_seen(a, "dash", 2)
+            t0 = time.monotonic()
+            assert len(await keys_seen(a, "dash", 3)) == 3  # A's still live
+            assert time.monotonic() - t0 < 3
+            await c.close()
+            await a.close()
+    asyncio.run(scenario())
+    time.sleep(0.5)  # every tab closed: nothing of the plot or dashboard is read
+    mark = t.tap.mark()
+    time.sleep(0.5)
+    assert not [raw for _, raw in not_sampling(t.tap, mark)], "read for a closed tab"

@@ -36,15 +36,17 @@ class Panels(Handler):
 
     async def dashboard(self, request):
         async def go(body):
-            V.fields(body, ("on",))
-            self.st.live.dash_on = V.flag(body["on"], "on")
+            V.fields(body, ("on",), ("tab",))
+            on = V.flag(body["on"], "on")
+            self.st.live.set_dash(_tab(body), on)
             self.st.wake()
-            return ok(on=self.st.live.dash_on)
+            return ok(on=on, polling=self.st.live.dash_on)
         return await self.handle(request, go)
 
     async def scope(self, request):
         async def go(body):
-            V.fields(body, ("picks",))
+            V.fields(body, ("picks",), ("tab",))
+            tab = _tab(body)
             if not isinstance(body["picks"], list) or len(body["picks"]) > MAX_TRACES:
                 raise Refused("'picks' must be a list of at most %d {id, register}. "
                               "Nothing was sent." % MAX_TRACES, 400)
@@ -64,7 +66,7 @@ class Panels(Handler):
                     raise Refused("%s does not exist on ID %d (the %s). Nothing was sent." % (
                         r.name, sid, variant.name), 400)
                 picks.setdefault(sid, []).append(r.name)
-            reads = self.st.live.set_picks(picks, self.st.state["baud"])
+            reads = self.st.live.set_picks(tab, picks, self.st.state["baud"])
             self.st.wake()
             return ok(reads=[[sid, a, n] for sid, a, n, _ in reads])
         return await self.handle(request, go)
@@ -200,6 +202,16 @@ class Panels(Handler):
                     docs.append(await self.st.call(lambda bus, s=sid: C.save(bus, s)))
             return ok(rows=C.diff(docs[0], docs[1]), a=docs[0], b=docs[1])
         return await self.handle(request, go)
+
+
+def _tab(body):
+    """The tab a plot or dashboard request is for (the page sends the name it gave its
+    WebSocket; a script that sends none is one tab of its own)."""
+    tab = body.get("tab", "")
+    if not isinstance(tab, str) or len(tab) > 64:
+        raise Refused("'tab' must be the page's tab name (text, at most 64 characters). "
+                      "Nothing was sent.", 400)
+    return tab
 
 
 def _group_job(values, how):

@@ -120,7 +120,7 @@ function renderScopePicker() {
 }
 
 async function applyTraces() {
-  const r = await post("/api/scope", { picks: X.traces.map((k) => ({ id: Number(k.split(".")[0]), register: k.split(".")[1] })) });
+  const r = await post("/api/scope", { tab: S.tab, picks: X.traces.map((k) => ({ id: Number(k.split(".")[0]), register: k.split(".")[1] })) });
   if (!r) return;
   X.scope = { t: [], v: {} };
   X.scopeInfo = null;
@@ -395,10 +395,19 @@ window.expert = (m) => {
 };
 window.expertShow = (panel) => {
   const on = panel === "dash";
-  if (on !== X.dashOn) { X.dashOn = on; post("/api/dashboard", { on }); }
+  if (on !== X.dashOn) { X.dashOn = on; post("/api/dashboard", { on, tab: S.tab }); }
   if (panel === "console") X.conDirty = true;
   if (panel === "scope") { if (X.scopeChart) X.scopeChart.resize(); X.scopeDirty = true; }
   if (panel === "trajed") { if (X.te.chart) X.te.chart.resize(); plan(); }
+};
+// The WebSocket (re)opened: the server forgot this tab's traces and dashboard when the
+// old one closed, so they are asked for again (nothing to ask for on the first open).
+window.expertConnected = () => {
+  if (X.connectedOnce) {
+    if (X.traces.length) post("/api/scope", { tab: S.tab, picks: X.traces.map((k) => ({ id: Number(k.split(".")[0]), register: k.split(".")[1] })) });
+    if (X.dashOn) post("/api/dashboard", { on: true, tab: S.tab });
+  }
+  X.connectedOnce = true;
 };
 (async function startExpert() {
   const r = await fetch("/api/frames");

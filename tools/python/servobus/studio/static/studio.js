@@ -556,8 +556,12 @@ $("log-clear").addEventListener("click", () => post("/api/clear", {}));
 
 // ---- start ------------------------------------------------------------------------
 
+// This tab's name: its register plot traces and its dashboard are its own (another tab
+// adding traces or leaving the dashboard does not change this one's).
+S.tab = Math.random().toString(36).slice(2, 12) + Date.now().toString(36);
 function connect() {
-  const ws = new WebSocket((location.protocol === "https:" ? "wss://" : "ws://") + location.host + "/ws");
+  const ws = new WebSocket((location.protocol === "https:" ? "wss://" : "ws://") + location.host +
+    "/ws?tab=" + encodeURIComponent(S.tab));
   ws.onmessage = (e) => {
     const m = JSON.parse(e.data);
     if (m.type === "state") onState(m.state);
@@ -576,7 +580,10 @@ function connect() {
     say(why, "error");
     setTimeout(connect, 1000);
   };
-  ws.onopen = () => { if ($("message").textContent.startsWith("The studio server")) say("", "ok"); };
+  ws.onopen = () => {
+    if ($("message").textContent.startsWith("The studio server")) say("", "ok");
+    if (window.expertConnected) window.expertConnected();  // a closed socket dropped them
+  };
 }
 
 (async function start() {
