@@ -244,3 +244,87 @@ def test_each_tab_keeps_its_own_plot_traces_and_dashboard(tapped):
     mark = t.tap.mark()
     time.sleep(0.5)
     assert not [raw for _, raw in not_sampling(t.tap, mark)], "read for a closed tab"
+
+
+def test_a_group_move_cut_short_leaves_no_held_goal_for_a_later_action(tapped):
+    # Move together is a REG WRITE to each servo, then one broadcast ACTION. When the
+    # second servo does not answer (here: status return level 0; or unplugged, or a STOP
+    # between the REG WRITEs and the ACTION) the first one kept its goal held, and the
+    # broadcast ACTION of a later group move — of other servos — started it: a move the
+    # user saw refused ran minutes later
+    t = tapped("2:foot", "7:foot", "8:foot", "9:foot")
+    ready(t, 4)
+    assert t.api.post("/api/write", {"id": 9, "name": "status_return_level", "value": 0,
+                                     "confirm": True})[0] == 200
+    status, answer = t.api.post("/api/group", {"goals": {"2": 300, "9": 300},
+                                               "speed": 200})
+    assert status == 422, answer  # ID 9 does not answer its REG WRITE
+    mark = t.tap.mark()
+    # ID 2 answers: its held goal is replaced. ID 9 does not: a broadcast ACTION would
+    # start it, so the move of 7 and 8 is refused in words, nothing moved ...
+    status, answer = t.api.post("/api/group", {"goals": {"7": 10, "8": 10}, "speed": 60})
+    assert status == 409 and "ID 9 may still hold the goal" in answer["error"], answer
+    time.sleep(0.3)
+    assert [raw for _, raw in t.tap.packets(mark) if raw[4] == 0x05] == []  # no ACTION
+    # ... while one SYNC WRITE (no ACTION) moves them
+    status, answer = t.api.post("/api/group", {"goals": {"7": 10, "8": 10}, "speed": 60,
+                                               "how": "sync"})
+    assert status == 200, answer
+    status, answer = t.api.post("/api/console", {"text": "--id 2 get registered goal_position"})
+    assert status == 200 and "goal_position = 300" not in answer["output"], answer["output"]
+    # ID 9 answers again: its held goal is replaced before the next ACTION, which then
+    # starts 7 and 8 only
+    assert t.api.post("/api/console", {"text": "D5 5D 09 04 03 10 02"})[0] == 200
+    mark = t.tap.mark()
+    status, answer = t.api.post("/api/group", {"goals": {"7": 20, "8": 20}, "speed": 60})
+    assert status == 200, answer
+    status, answer = t.api.post("/api/console", {"text": "--id 9 get goal_position"})
+    assert "goal_position = 300" not in answer["output"], answer["output"]
+    assert [raw[2] for _, raw in t.tap.packets(mark) if raw[4] == 0x04] == [9, 7, 8]
+
+
+def test_stop_between_the_reg_writes_and_the_action_leaves_no_held_goal(tapped):
+    # at 9600 baud (rfc2217://) a group move of three feet takes about 0.1 s of REG
+    # WRITEs before its ACTION: a STOP in between cut it short and left the first ones
+    # holding their goals, started by the next group move's ACTION
+    import threading
+    t = tapped("2:foot", "7:foot", "8:foot", "9:foot", rfc2217=True)
+    ready(t, 4)
+    for attempt in range(10):  # until the STOP lands between the REG WRITEs
+        mark = t.tap.mark()
+        out = []
+        th = threading.Thread(target=lambda: out.append(t.api.post(
+            "/api/group", {"goals": {"2": 300, "7": 300, "8": 300}, "speed": 200})))
+        th.start()
+        deadline = time.monotonic() + 5
+        while not [r for _, r in t.tap.packets(mark) if r[4] == 0x04] and \
+                time.monotonic() < deadline:
+            time.sleep(0.002)
+        assert t.api.post("/api/stop")[0] == 200
+        th.join()
+        if out[0][0] == 409:  # cut short: "Stopped by STOP"
+            break
+    else:
+        raise AssertionError("the STOP never landed between the REG WRITEs")
+    t.api.wait(lambda st: not st["jobs"], what="STOP's jobs done")
+    mark = t.tap.mark()
+    status, answer = t.api.post("/api/group", {"goals": {"9": 20, "7": 20}, "speed": 60})
+    assert status == 200, answer
+    status, answer = t.api.post("/api/console", {"text": "--id 2 get goal_position"})
+    assert "goal_position = 300" not in answer["output"], answer["output"]
+
+
+def test_a_confirmed_status_return_level_0_is_not_answered_as_a_failure(tapped):
+    # before: written as confirmed, then read back from a servo that answers only PING
+    # now: HTTP 422 "No answer from ID 2 ... power and wiring"
+    t = tapped("2:foot")
+    ready(t, 1)
+    mark = t.tap.mark()
+    status, answer = t.api.post("/api/write", {"id": 2, "name": "status_return_level",
+                                               "value": 0, "confirm": True})
+    assert status == 200 and answer["value"] == 0, answer
+    assert [d for _, d in writes_to(t.tap, REGISTERS["status_return_level"].address,
+                                    mark)] == [b"\x00"]
+    status, answer = t.api.post("/api/write", {"id": 2, "name": "status_return_level",
+                                               "value": 2})
+    assert status == 200 and answer["value"] == 2, answer

@@ -114,7 +114,7 @@ class Entry(Handler):
                           "factory value (ID 1, the default baud)." % sid)
         named = await self._check_writes(sid, ins, params, confirm)
         motion = ins in _MOTION_INS or any(n in MOTION_REGISTERS for n in named)
-        rec = self.st.recorder
+        rec, st = self.st.recorder, self.st
 
         def job(bus):
             first = rec.mark()
@@ -122,8 +122,13 @@ class Entry(Handler):
                 if sid == P.BROADCAST and ins == P.PING:
                     bus.scan()  # the same broadcast PING, its ID slots listened to
                 else:
+                    if ins == P.REG_WRITE:  # held: a group move's ACTION replaces it
+                        st.held.update(s["id"] for s in st.state["servos"]) if \
+                            sid == P.BROADCAST else st.held.add(sid)
                     bus.transact(sid, ins, params, nbytes=params[1] + 6 if ins == P.READ
                                  and len(params) == 2 else 7, motion=ins in _MOTION_INS)
+                    if ins == P.ACTION:
+                        st.held.clear() if sid == P.BROADCAST else st.held.discard(sid)
             except ServoBusError as e:
                 return first, rec.mark(), in_words(e, bus.baud)
             return first, rec.mark(), ""

@@ -8,9 +8,10 @@ from .. import planner
 from .. import protocol as P
 from .. import values as V
 from ..registers import REGISTERS, register, variant_by_model
+from .. import Interrupted, ServoBusError
 from .api import Handler, ok
 from .jobs import Refused
-from .words import sentence
+from .words import is_link_error, sentence
 
 MAX_TRACES = 12
 
@@ -93,7 +94,7 @@ class Panels(Handler):
                                   "one goal. Nothing was sent." % (sid, keys[sid], key), 400)
                 keys[sid] = key
                 values[sid] = self._goal(sid, deg, body["speed"])
-            job = _group_job(values, how)
+            job = _group_job(self.st, values, how)
             clamps = await self.st.call(job, "IDs %s: move together (%s)" % (
                 ", ".join(map(str, sorted(values))), "REG WRITE, broadcast ACTION"
                 if how == "action" else "SYNC WRITE"), motion=True)
@@ -214,18 +215,35 @@ def _tab(body):
     return tab
 
 
-def _group_job(values, how):
+def _group_job(st, values, how):
     """The job of a group move; {ID: held_goal()} for the servos that clamped their
-    goal to their angle limits."""
+    goal to their angle limits. No goal is left held for a later ACTION: a REG WRITE of
+    a move cut short (a servo that does not answer, a STOP) is replaced (Studio.unhold),
+    and a broadcast ACTION is refused while a servo may hold one."""
     from .moves import held_goal
 
     def job(bus):
         if how == "sync":
             bus.sync_write("goal_position", values)
         else:
-            for sid, v in sorted(values.items()):
-                bus.reg_write(sid, v)  # goal and speed (30-33), held until the ACTION
+            left = st.unhold(bus, st.held - set(values)) if st.held - set(values) else []
+            if left:
+                raise Refused(
+                    "ID %s may still hold the goal of a group move that was cut short (a "
+                    "REG WRITE), and does not answer to have it replaced: this move's "
+                    "broadcast ACTION would start it too. Make it answer again (or power "
+                    "it off and on), or move with one SYNC WRITE. No goal was sent." %
+                    ", ".join(map(str, left)), 409, sent=True)
+            try:
+                for sid, v in sorted(values.items()):
+                    st.held.add(sid)  # held from now on, even if its answer is lost
+                    bus.reg_write(sid, v)  # goal and speed (30-33), held until ACTION
+            except ServoBusError as e:
+                if not isinstance(e, Interrupted) and not is_link_error(e):
+                    st.unhold(bus, set(values))  # STOP's job does it after a STOP
+                raise
             bus.action(P.BROADCAST)  # every one of them starts at this packet
+            st.held.clear()  # a broadcast ACTION empties every servo's buffer
         clamps = {}
         for sid, v in sorted(values.items()):
             c = held_goal(bus, sid, v["goal_position"])

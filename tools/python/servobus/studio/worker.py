@@ -60,6 +60,7 @@ class Studio:
         self.nsample = 0
         self.slow = {}              # homing and photo switches from the last full sample
         self.gone_cause = ""        # why the bus is gone, in the bus's words (once)
+        self.held = set()           # IDs that may hold a REG WRITE the studio sent
         self.live = Live(self)      # the dashboard and the plot of any register (live.py)
         self.state = {
             "port": bus.port, "baud": bus.baud, "tcp": bus.is_tcp, "link": "connected",
@@ -155,7 +156,31 @@ class Studio:
         if sid is not None:  # the selected servo again, with an answer that confirms it
             self.queue.put(Job(lambda b: b.stop(sid), "ID %d: moving speed 0 (STOP, "
                                "confirmed by its answer)" % sid, prio=0))
+        if self.held:  # a group move STOP cut short: no goal left for a later ACTION
+            self.queue.put(Job(lambda b: self.unhold(b, set(self.held)), "IDs %s: held "
+                               "goal replaced (STOP)" % ", ".join(map(str, sorted(
+                                   self.held))), prio=0))
         return at
+
+    def unhold(self, bus, ids):
+        """Replace what servos ids may hold from a REG WRITE of the studio's (a group move
+        cut short between its REG WRITEs and its ACTION) by a REG WRITE that changes
+        nothing — register 49 as it is — so that a later broadcast ACTION does not start
+        an old move (a held write survives STOP: PROTOCOL.md §4.4). Worker thread. The
+        IDs that did not answer (they may still hold it)."""
+        left = []
+        for sid in sorted(ids):
+            try:
+                value = bus.read(sid, "move_without_reference")
+                bus.reg_write(sid, {"move_without_reference": value})
+                self.held.discard(sid)
+            except Interrupted:
+                raise
+            except ServoBusError as e:
+                if is_link_error(e):
+                    raise
+                left.append(sid)
+        return left
 
     def _run(self, job):
         """Run one job; its log entry (if it has words) once it is done, dated when it
