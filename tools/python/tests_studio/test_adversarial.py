@@ -177,6 +177,14 @@ def test_a_clamped_goal_is_said_by_the_api_and_the_page(tapped, page):
                                                    "speed": 60, "how": how})
         assert status == 200 and list(answer["clamped"]) == ["2"], answer
         assert "ID 2: 350 deg is outside" in answer["note"], answer
+    # an arm not homed takes a REG WRITE of its goal, and ignores the broadcast ACTION:
+    # said as such, not as a clamp (before: "started together")
+    t2 = tapped("1:arm", "2:foot")
+    ready(t2, 2)
+    status, answer = t2.api.post("/api/group", {"goals": {"1": 50, "2": 100},
+                                                "speed": 60})
+    assert status == 200 and "ID 1 did not take the goal of 50 deg" in answer["note"], \
+        answer
     p = page(t.studio.url)
     p.wait_scanned(2)
     p.select(2)

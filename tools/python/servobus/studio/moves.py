@@ -82,10 +82,16 @@ class Moves(Handler):
             return {}
         held, asked, lo, hi = (round(v * self.st.resolutions.get(sid, 10) * 0.1, 2)
                                for v in clamp)
+        if lo <= asked <= hi:  # not a clamp: the servo did not take the move at all
+            note = ("ID %d did not take the goal of %g deg (its goal is %g deg): an arm, "
+                    "wrist or finger refuses motion until it is homed, and an unload "
+                    "refuses it too (Safety)." % (sid, asked, held))
+        else:
+            note = ("ID %d: %g deg is outside its angle limits (%g..%g deg): it goes to "
+                    "%g deg instead (the servo clamps the goal)." % (sid, asked, lo, hi,
+                                                                      held))
         return {"clamped": {"asked": asked, "held": held, "limits": [lo, hi]},
-                "note": "ID %d: %g deg is outside its angle limits (%g..%g deg): it goes "
-                        "to %g deg instead (the servo clamps the goal)." % (
-                            sid, asked, lo, hi, held)}
+                "note": note}
 
     async def speed(self, request):
         async def go(body):
