@@ -336,3 +336,43 @@ def test_a_confirmed_status_return_level_0_is_not_answered_as_a_failure(tapped):
     status, answer = t.api.post("/api/write", {"id": 2, "name": "status_return_level",
                                                "value": 2})
     assert status == 200 and answer["value"] == 2, answer
+
+
+def test_a_restore_cut_short_by_stop_says_what_was_written(sim_factory):
+    # before: "Stopped by STOP before it was done: nothing more of it was sent." while
+    # return_delay and temperature_limit had been written (seen at 9600 baud, STOP 1.05 s
+    # into a restore of five settings): the page promised all or nothing
+    import threading
+    from servobus import Bus, Interrupted
+    from servobus import config as C
+    from servobus.studio.words import in_words
+    sim = sim_factory("2:foot")
+    with Bus(sim.url) as bus:
+        before = C.save(bus, 2)
+        doc = dict(before, settings=dict(before["settings"], return_delay=20,
+                                         temperature_limit=75, heartbeat_enable=0,
+                                         rs485_termination=1))
+        changes, _, runs = C.restore_plan(bus, 2, doc)
+        assert len(runs) >= 3
+        bus.stop_event = threading.Event()
+        writes = []
+
+        def tap(direction, data, _t):  # STOP pressed while the first WRITE is answered
+            if direction == "tx" and data[4] == 0x03:
+                writes.append(data)
+                bus.stop_event.set()
+        bus.tap = tap
+        try:
+            C.restore(bus, 2, changes)
+            raise AssertionError("not cut short")
+        except Interrupted as e:
+            words = in_words(e)
+        bus.tap = None
+        bus.stop_event = None
+        after = C.save(bus, 2)["settings"]
+    written = {k for k in changes if after[k] != before["settings"][k]}
+    assert len(writes) == 1 and written and written != set(changes), written
+    assert "Stopped by STOP part way" in words, words
+    for k in changes:  # each setting is named on the side it is on
+        assert ("%s = %s" % (k, changes[k]) in words) == (k in written), (k, words)
+        assert k in words
