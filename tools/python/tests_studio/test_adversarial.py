@@ -376,3 +376,21 @@ def test_a_restore_cut_short_by_stop_says_what_was_written(sim_factory):
     for k in changes:  # each setting is named on the side it is on
         assert ("%s = %s" % (k, changes[k]) in words) == (k in written), (k, words)
         assert k in words
+
+
+def test_trajectory_points_outside_the_angle_limits_are_said_and_planned_clamped(tapped):
+    # before: "Trajectory of 2 points written and running." while the servo clamped
+    # point 1 (src/traj.c), and the editor's plan drew it going to 350 deg
+    t = tapped("2:foot")
+    ready(t, 1)
+    assert t.api.post("/api/write", {"id": 2, "name": "ccw_angle_limit",
+                                     "value": "300"})[0] == 200
+    points = [[350, 180], [100, 180]]
+    status, answer = t.api.post("/api/plan", {"points": points, "id": 2})
+    assert status == 200 and answer["outside"] == [1], answer
+    assert max(p for _, p in answer["profile"]) <= 300, "planned past the limit"
+    status, answer = t.api.post("/api/traj", {"points": points, "id": 2})
+    assert status == 200 and answer["outside"] == [1], answer
+    assert "point 1 (350 deg) is outside its angle limits (0..300 deg)" in answer["note"]
+    status, answer = t.api.post("/api/traj", {"points": [[200, 180]], "id": 2})
+    assert status == 200 and "note" not in answer, answer

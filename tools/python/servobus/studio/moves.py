@@ -23,6 +23,18 @@ def held_goal(bus, sid, goal):
     return held, goal, lim["cw_angle_limit"], lim["ccw_angle_limit"]
 
 
+def angle_limits(bus, sid):
+    """(CW, CCW) angle limits in position units that the servo clamps a goal or a
+    trajectory point to, or None in speed mode (the base; both limits 0): src/regs.c
+    regs_clamp_goal()."""
+    variant = bus.variant(sid)
+    if variant is not None and not REGISTERS["acceleration"].applies_to(variant):
+        return None
+    lim = bus.read_many(sid, ["cw_angle_limit", "ccw_angle_limit"])
+    lo, hi = lim["cw_angle_limit"], lim["ccw_angle_limit"]
+    return None if lo == 0 and hi == 0 else (lo, hi)
+
+
 class Moves(Handler):
     """POST /api/stop, /api/move, /api/speed, /api/home, /api/traj."""
 
@@ -141,12 +153,29 @@ class Moves(Handler):
             points = self._points(body["points"])
 
             def job(bus):
+                lim = angle_limits(bus, sid)
                 bus.trajectory_write(sid, points)
                 bus.trajectory_action(sid)
-            await self.st.call(job, "ID %d: trajectory of %d points, run" % (
+                return lim
+            lim = await self.st.call(job, "ID %d: trajectory of %d points, run" % (
                 sid, len(points)), motion=True)
-            return ok()
+            return ok(**self.points_clamped(sid, points, lim))
         return await self.handle(request, go)
+
+    def points_clamped(self, sid, points, lim):
+        """The answer's note for trajectory points outside the angle limits lim (the
+        servo clamps each: src/traj.c), or nothing."""
+        outside = [n for n, (a, _) in enumerate(points, 1) if lim and not
+                   lim[0] <= a <= lim[1]]
+        if not outside:
+            return {}
+        deg = self.st.resolutions.get(sid, 10) * 0.1
+        return {"outside": outside, "note": "ID %d: point%s %s (%s deg) %s outside its angle "
+                "limits (%g..%g deg): the servo goes to the nearest limit instead." % (
+                    sid, "s" if len(outside) > 1 else "", ", ".join(map(str, outside)),
+                    ", ".join("%g" % round(points[n - 1][0] * deg, 2) for n in outside),
+                    "are" if len(outside) > 1 else "is", round(lim[0] * deg, 2),
+                    round(lim[1] * deg, 2))}
 
     def _points(self, given):
         """[(angle, speed)] in position units from [[deg, deg/s], ...] (1 to 63)."""

@@ -123,8 +123,9 @@ class Panels(Handler):
         async def go(body):
             V.fields(body, ("points",), ("id",))
             sid = self.target(body)
-            from .moves import Moves
-            points = Moves(self.st)._points(body["points"])  # as the Motion panel's
+            from .moves import Moves, angle_limits
+            moves = Moves(self.st)
+            points = moves._points(body["points"])  # as the Motion panel's
 
             def job(bus):
                 variant = bus.variant(sid)
@@ -133,14 +134,16 @@ class Panels(Handler):
                                                               "base_deceleration")
                 v = bus.read_many(sid, [variant.position_register.name, "angle_resolution",
                                         *ramps])
-                return v, ramps
-            v, ramps = await self.st.call(job)
+                return v, ramps, angle_limits(bus, sid)
+            v, ramps, lim = await self.st.call(job)
             res = v["angle_resolution"] or 10
             start = v[[k for k in v if k in ("turned_angle", "present_position")][0]]
-            prof = planner.trajectory(start, points, res, v[ramps[0]], v[ramps[1]])
+            # the servo clamps each point to its angle limits (src/traj.c): so does the plan
+            held = [(min(max(a, lim[0]), lim[1]) if lim else a, sp) for a, sp in points]
+            prof = planner.trajectory(start, held, res, v[ramps[0]], v[ramps[1]])
             deg = res * 0.1
             return ok(profile=[[t, round(p * deg, 2)] for t, p in prof],
-                      duration=prof[-1][0])
+                      duration=prof[-1][0], **moves.points_clamped(sid, points, lim))
         return await self.handle(request, go)
 
     async def config_save(self, request):

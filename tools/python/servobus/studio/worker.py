@@ -308,6 +308,9 @@ class Studio:
         self.state["servos"].sort(key=lambda s: s["id"])
         if sid in self.resolutions:
             self.resolutions[new] = self.resolutions.pop(sid)
+        if sid in self.held:  # what it holds went with it
+            self.held.discard(sid)
+            self.held.add(new)
 
     def follow_baud(self, bus, sid, code, variant=None):
         """Servo sid (of variant, default: as the Bus knows it) answers at baud code from

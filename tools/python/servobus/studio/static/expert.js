@@ -276,7 +276,7 @@ function plan() {
   X.te.planTimer = setTimeout(async () => {
     if (!X.te.points.length || selected() === null) { X.te.plan = []; drawTe(); return; }
     const r = await post("/api/plan", { points: X.te.points });
-    if (r) { X.te.plan = r.profile; $("te-info").textContent = "planned: " + r.duration.toFixed(2) + " s"; }
+    if (r) { X.te.plan = r.profile; $("te-info").textContent = "planned: " + r.duration.toFixed(2) + " s" + (r.note ? ". " + r.note : ""); }
     drawTe();
   }, 150);
 }
@@ -320,7 +320,7 @@ $("te-run").addEventListener("click", async () => {
   X.te.measured = [];
   X.te.runAt = null;
   const r = await post("/api/traj", { points: X.te.points });
-  if (r) { X.te.runAt = "next"; say("Trajectory of " + X.te.points.length + " points sent and running.", "ok"); }
+  if (r) { X.te.runAt = "next"; say("Trajectory of " + X.te.points.length + " points sent and running." + (r.note ? " " + r.note : ""), r.note ? "" : "ok"); }
 });
 function onSampleTe(m) {
   if (X.te.runAt === null || m.id !== selected()) return;

@@ -323,8 +323,8 @@ function renderTraj() {
 }
 $("traj-add").addEventListener("click", () => { S.traj.push([0, 60]); renderTraj(); });
 $("traj-run").addEventListener("click", async () => {
-  if (await post("/api/traj", { points: S.traj }))
-    say("Trajectory of " + S.traj.length + " points written and running.", "ok");
+  const r = await post("/api/traj", { points: S.traj });
+  if (r) say("Trajectory of " + S.traj.length + " points written and running." + (r.note ? " " + r.note : ""), r.note ? "" : "ok");
 });
 
 // ---- live samples and the plot ----------------------------------------------------
