@@ -394,3 +394,21 @@ def test_trajectory_points_outside_the_angle_limits_are_said_and_planned_clamped
     assert "point 1 (350 deg) is outside its angle limits (0..300 deg)" in answer["note"]
     status, answer = t.api.post("/api/traj", {"points": [[200, 180]], "id": 2})
     assert status == 200 and "note" not in answer, answer
+
+
+def test_a_file_too_large_is_refused_with_a_sentence(tapped):
+    # before: aiohttp's plain-text 413, and the page: "The studio answered HTTP 413
+    # Request Entity Too Large without a sentence." (an .elf chosen for the image)
+    t = tapped("2:foot")
+    ready(t, 1)
+    mark = t.tap.mark()
+    for path, body, ctype in (
+            ("/api/update?id=2&file=servo.elf", b"\x7fELF" + bytes(2 << 20),
+             "application/octet-stream"),
+            ("/api/config/restore", '{"config": "%s"}' % ("x" * (2 << 20)),
+             "application/json")):
+        status, answer = t.api.request("POST", path, body, headers={"Content-Type": ctype})
+        assert status == 413 and isinstance(answer, dict), (path, status, str(answer)[:80])
+        assert "more than the studio takes" in answer["error"] and not answer["sent"]
+    time.sleep(0.3)
+    assert not_sampling(t.tap, mark) == []
