@@ -412,3 +412,30 @@ def test_a_file_too_large_is_refused_with_a_sentence(tapped):
         assert "more than the studio takes" in answer["error"] and not answer["sent"]
     time.sleep(0.3)
     assert not_sampling(t.tap, mark) == []
+
+
+def test_a_servo_that_stops_answering_shows_no_stale_live_values(tapped, page):
+    # before: the studio knew (state.sample_error) but the page never showed it: the
+    # selected servo's position, "moving", its health and the plot's "28 Hz" stayed as
+    # if live; the dashboard's row kept its last position next to the error
+    t = tapped("2:foot", "7:foot")
+    ready(t, 2)
+    p = page(t.studio.url)
+    p.wait_scanned(2)
+    p.select(7)
+    p.wait(lambda: p.text("ro-pos").endswith("deg"), what="live values of ID 7")
+    p.panel("dash")
+    p.wait(lambda: p.all("#dash-table tr[data-id='7'] .d-position") and p.by(
+        "#dash-table tr[data-id='7'] .d-position").text.endswith("deg"), what="the row")
+    status, answer = t.api.post("/api/write", {"id": 7, "name": "status_return_level",
+                                               "value": 0, "confirm": True})
+    assert status == 200, answer  # ID 7 answers nothing but PING from now on
+    p.wait(lambda: "Live values of ID 7 stopped" in p.message(), what="the page saying so")
+    assert "status return level" in p.message()
+    assert p.text("ro-pos") == "\u2013" and p.text("moving") == "\u2013"
+    p.wait(lambda: p.by("#dash-table tr[data-id='7'] .d-position").text == "\u2013",
+           what="the dashboard row without its stale position")
+    assert "level" in p.by("#dash-table tr[data-id='7'] .d-err").text
+    # it answers again: the values come back
+    assert t.api.post("/api/console", {"text": "D5 5D 07 04 03 10 02"})[0] == 200
+    p.wait(lambda: p.text("ro-pos").endswith("deg"), what="live values again")

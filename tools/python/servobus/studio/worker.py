@@ -230,33 +230,43 @@ class Studio:
                 next_sample = self._sample(self.selected, now, next_sample)
 
     def _sample(self, sid, now, next_sample):
-        """One live sample (and the table when due); the time of the next one."""
+        """One live sample (and the table when due), then the dashboard and the register
+        plot; the time of the next one. The selected servo not answering does not stop
+        the others being read (before, it froze the dashboard and the plot of all)."""
+        quiet = False
         try:
-            if sid is not None:
-                sampler.sample(self, sid)
-                self._stamps = [t for t in self._stamps if t > now - 1.0] + [now]
-                self.rate = len(self._stamps) / min(1.0, max(now - self.t0, 1e-3))
-                if now >= self.table_due:
-                    self.table_due = now + TABLE_PERIOD_S
-                    sampler.table(self, sid)
+            try:
+                if sid is not None:
+                    sampler.sample(self, sid)
+                    self._stamps = [t for t in self._stamps if t > now - 1.0] + [now]
+                    self.rate = len(self._stamps) / min(1.0, max(now - self.t0, 1e-3))
+                    if now >= self.table_due:
+                        self.table_due = now + TABLE_PERIOD_S
+                        sampler.table(self, sid)
+                self._sample_error(None)
+            except (ServoBusError, OSError) as e:
+                if isinstance(e, Interrupted) or is_link_error(e):
+                    raise
+                self._sample_error(in_words(e, self.bus.baud))
+                quiet = True
             self.live.poll(self.bus)
-            if self.sample_error:
-                self.sample_error = None
-                self.state["sample_error"] = ""
-                self.changed()
         except Interrupted:
             pass  # a STOP: its job is next
         except (ServoBusError, OSError) as e:  # OSError: a serial adapter unplugged
             if is_link_error(e):
                 self._lost(e)
                 return next_sample
-            words = in_words(e, self.bus.baud)
-            if words != self.sample_error:
-                self.sample_error = words
-                self.state["sample_error"] = words
-                self.changed()
-            return time.monotonic() + 0.5  # leave the bus to the user's actions
-        return next_sample
+            self._sample_error(in_words(e, self.bus.baud))
+            quiet = True
+        # a servo that does not answer: leave the bus to the user's actions for a while
+        return time.monotonic() + 0.5 if quiet else next_sample
+
+    def _sample_error(self, words):
+        """The live sample's refusal in words (None: it answers), pushed when it changes."""
+        if words != self.sample_error:
+            self.sample_error = words
+            self.state["sample_error"] = words or ""
+            self.changed()
 
     def wake(self):
         """Let the worker look at what to poll now (a job that does nothing)."""

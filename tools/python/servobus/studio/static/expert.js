@@ -230,7 +230,10 @@ function onDash(m) {
     }
     const cell = (k, v) => { tr.querySelector(".d-" + k).textContent = v; };
     cell("id", r.id);
-    if (r.error) { cell("err", r.error); continue; }
+    if (r.error) {  // no answer this cycle: no value shown as if it were live
+      for (const k of ["position", "speed", "temperature", "moving", "mode"]) cell(k, "\u2013");
+      cell("err", r.error); tr.classList.add("bad"); continue;
+    }
     cell("variant", r.variant); cell("position", r.position + " deg"); cell("speed", r.speed + " deg/s");
     cell("temperature", r.temperature + " \u00b0C"); cell("err", r.err_words.join(", "));
     cell("moving", r.moving ? "moving" : "still"); cell("mode", r.mode);

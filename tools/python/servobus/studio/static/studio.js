@@ -130,6 +130,16 @@ function onState(st) {
   link.className = "link" + (st.link_ok ? "" : " bad");
   if (!st.link_ok) say(st.link, "error");
   else if ($("message").textContent.includes("reconnecting")) say("Connected again to " + st.port + ".", "ok");
+  // The selected servo stopped answering its live READs (unplugged, status return level
+  // 0, ...): say so, and show no value as if it were live.
+  const serr = st.link_ok ? (st.sample_error || "") : "";
+  if (serr !== (S.sampleError || "")) {
+    S.sampleError = serr;
+    if (serr) {
+      staleReadouts();
+      say("Live values of ID " + st.selected + " stopped: " + serr, "error");
+    } else if ($("message").textContent.startsWith("Live values of")) say("Live values again.", "ok");
+  }
   // servo picker
   const pick = $("servo-pick");
   const want = st.servos.map((s) => s.id + ":" + s.variant).join(",");
@@ -351,6 +361,13 @@ function onSample(m) {
     if (P.t.length > 1500) for (const k of Object.keys(P)) P[k].shift();
     S.plotDirty = true;
   }
+}
+
+function staleReadouts() {
+  for (const id of ["ro-pos", "ro-goal", "ro-speed", "moving", "ro-homing", "home-status"])
+    $(id).textContent = "\u2013";
+  $("safety-flags").replaceChildren(el("li", { class: "health-bad" }, "no live answer"));
+  if (S.sample) S.sample = Object.assign({}, S.sample, { rate: 0 });
 }
 
 function renderFlags(m) {
