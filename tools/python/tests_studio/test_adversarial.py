@@ -439,3 +439,36 @@ def test_a_servo_that_stops_answering_shows_no_stale_live_values(tapped, page):
     # it answers again: the values come back
     assert t.api.post("/api/console", {"text": "D5 5D 07 04 03 10 02"})[0] == 200
     p.wait(lambda: p.text("ro-pos").endswith("deg"), what="live values again")
+
+
+def test_a_new_angle_resolution_is_used_for_the_next_move_at_once(tapped):
+    # before: after angle_resolution 5 (0.5 deg a unit), Move together to 100 deg sent
+    # 100 units, and the foot went to 50 deg (the studio's cached resolution was 10
+    # until the dashboard's slow READ or a select caught up)
+    t = tapped("2:foot", "7:foot")
+    ready(t, 2)
+    assert t.api.post("/api/select", {"id": 7})[0] == 200
+    for sid in (2, 7):  # no stop 500 ms after the last packet: the goals stay to be read
+        assert t.api.post("/api/write", {"id": sid, "name": "heartbeat_enable",
+                                         "value": 0})[0] == 200
+
+    def goal(sid):
+        status, answer = t.api.post("/api/console", {"text": "--id %d get goal_position"
+                                                             % sid})
+        return answer["output"].strip()
+    assert t.api.post("/api/write", {"id": 2, "name": "angle_resolution",
+                                     "value": 5})[0] == 200  # the control table
+    assert t.api.post("/api/console", {"text": "--id 7 set angle_resolution 5"})[0] \
+        == 200  # the console (of the selected servo)
+    status, answer = t.api.post("/api/group", {"goals": {"2": 100, "7": 80},
+                                               "speed": 30})
+    assert status == 200, answer
+    goals = goal(2), goal(7)
+    assert goals == ("goal_position = 200 (100 deg)", "goal_position = 160 (80 deg)"), goals
+    status, answer = t.api.post("/api/move", {"goal": 45, "speed": 30, "acc": 36,
+                                              "dec": 36})  # the selected one, at once
+    assert status == 200 and goal(7) == "goal_position = 90 (45 deg)", goal(7)
+    # a hex WRITE of register 13 in the console too
+    assert t.api.post("/api/console", {"text": "D5 5D 02 04 03 0D 0A"})[0] == 200
+    status, answer = t.api.post("/api/group", {"goals": {"2": 30, "7": 30}, "speed": 30})
+    assert status == 200 and goal(2) == "goal_position = 30 (30 deg)", goal(2)

@@ -107,6 +107,8 @@ class Actions(Handler):
             bus.write(sid, reg.name, value)
             if reg.name == "baud_rate":  # it answers at its new baud from now on
                 st.follow_baud(bus, sid, value)
+            if reg.name == "angle_resolution":  # degrees mean other units from now on
+                st.set_resolution(sid, value)
             if not reg.readable or (reg.name == "status_return_level" and value == 0):
                 return value  # at level 0 it answers nothing but PING: no read-back
             return bus.read(sid, reg.name)

@@ -113,6 +113,7 @@ class Entry(Handler):
                           409, confirm="RESET: every setting of ID %d goes back to its "
                           "factory value (ID 1, the default baud)." % sid)
         named = await self._check_writes(sid, ins, params, confirm)
+        per_id = self._sync_resolutions(sid, ins, params)
         motion = ins in _MOTION_INS or any(n in MOTION_REGISTERS for n in named)
         rec, st = self.st.recorder, self.st
 
@@ -129,6 +130,12 @@ class Entry(Handler):
                                  and len(params) == 2 else 7, motion=ins in _MOTION_INS)
                     if ins == P.ACTION:
                         st.held.clear() if sid == P.BROADCAST else st.held.discard(sid)
+                    if "angle_resolution" in named and ins == P.WRITE:
+                        for i in ([s["id"] for s in st.state["servos"]]
+                                  if sid == P.BROADCAST else [sid]):
+                            st.set_resolution(i, named["angle_resolution"])
+                    for i, value in per_id.items():  # a SYNC WRITE of register 13
+                        st.set_resolution(i, value)
             except ServoBusError as e:
                 return first, rec.mark(), in_words(e, bus.baud)
             return first, rec.mark(), ""
@@ -136,6 +143,15 @@ class Entry(Handler):
         first, last, error = await self.st.call(
             job, "%s to ID %d (%s)" % (what, sid, raw.hex(" ")), motion=motion)
         return ok(frames=rec.between(first, last), error=error)
+
+    @staticmethod
+    def _sync_resolutions(sid, ins, params):
+        """{ID: angle resolution} a SYNC WRITE sets (the studio's degrees follow it)."""
+        if ins != P.SYNC_WRITE:
+            return {}
+        d = F.decode_instruction(P.instruction(sid, ins, params))
+        return {int(name[3:].split(": ", 1)[0]): value for name, value, _ in d["fields"]
+                if name.endswith(": angle_resolution")}
 
     async def _check_writes(self, sid, ins, params, confirm):
         """The registers a WRITE, REG WRITE or SYNC WRITE carries, checked as a form's
@@ -222,7 +238,10 @@ class Entry(Handler):
 
         def job(bus):
             first = rec.mark()
-            return first, self._run(bus, args), rec.mark()
+            out = self._run(bus, args)
+            if "angle_resolution" in getattr(args, "written", {}):
+                self.st.set_resolution(args.id, args.written["angle_resolution"])
+            return first, out, rec.mark()
         first, out, last = await self.st.call(job, "console: servoctl " + " ".join(words),
                                               motion=args.command in ("move", "speed",
                                                                       "home", "traj"))
@@ -239,6 +258,7 @@ class Entry(Handler):
             rest = {k: v for k, v in values.items() if k != "clear_unload"}
             if rest:
                 bus.plan_write(args.id, rest)
+            args.written = values  # what the set writes (the studio's degrees follow)
             return bus.lockout(args.id, values)
         reasons = await self.st.call(check)
         if reasons and not confirm:

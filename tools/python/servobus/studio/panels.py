@@ -188,6 +188,8 @@ class Panels(Handler):
         def job(bus):
             variant = bus.variant(sid)  # while it answers at this ID and baud
             C.restore(bus, sid, changes)
+            if "angle_resolution" in changes:
+                st.set_resolution(changes.get("id", sid), changes["angle_resolution"])
             if "baud_rate" in changes:  # written last (plan_write), at the new ID if any
                 st.follow_baud(bus, changes.get("id", sid), changes["baud_rate"], variant)
         return job

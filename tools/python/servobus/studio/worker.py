@@ -309,6 +309,15 @@ class Studio:
         self.table_due = 0.0
         self.log("reconnected to %s" % self.port)
 
+    def set_resolution(self, sid, value):
+        """Servo sid's angle resolution (register 13) is value now: every degree the
+        studio converts for it uses it from the next action on (before, a group move
+        right after a change sent its goal at the old resolution: half the angle)."""
+        res = value or 10
+        self.resolutions[sid] = res
+        if sid == self.selected:
+            self.resolution = res
+
     def renumbered(self, sid, new):
         """Servo sid answers at ID new now (Set ID, a restore with the ID): the list and
         the per-servo state follow it. Call from the event loop."""
