@@ -472,3 +472,45 @@ def test_a_new_angle_resolution_is_used_for_the_next_move_at_once(tapped):
     assert t.api.post("/api/console", {"text": "D5 5D 02 04 03 0D 0A"})[0] == 200
     status, answer = t.api.post("/api/group", {"goals": {"2": 30, "7": 30}, "speed": 30})
     assert status == 200 and goal(2) == "goal_position = 30 (30 deg)", goal(2)
+    # a move that names a servo other than the selected one uses that servo's
+    # resolution (before: the selected one's, 0.5 deg: 20 deg became 40)
+    status, answer = t.api.post("/api/move", {"goal": 20, "speed": 30, "acc": 36,
+                                              "dec": 36, "id": 2})
+    assert status == 200 and goal(2) == "goal_position = 20 (20 deg)", goal(2)
+
+
+def test_a_confirmation_goes_to_the_servo_it_asked_about(tapped, page):
+    # Two tabs share the selection. Tab A asks "temperature_limit -1: ID 2 would unload
+    # at once, write it anyway?"; meanwhile another tab selects ID 7; A's user says yes.
+    # Before: the confirmed write went to ID 7 (the selected servo at that moment), and
+    # so did a factory reset confirmed for ID 2
+    t = tapped("2:foot", "7:foot")
+    ready(t, 2)
+    p = page(t.studio.url)
+    p.wait_scanned(2)
+    p.select(2)
+    p.panel("table")
+    box = p.by("#in-temperature_limit")
+    box.clear()
+    box.send_keys("-1")
+    p.click("set-temperature_limit")
+    p.wait(lambda: p.by("#confirm").is_displayed(), what="the confirmation")
+    assert "ID 2" in p.text("confirm-text")
+    assert t.api.post("/api/select", {"id": 7})[0] == 200  # "another tab"
+    mark = t.tap.mark()
+    p.click("confirm-yes")
+    p.wait(lambda: writes_to(t.tap, REGISTERS["temperature_limit"].address, mark),
+           what="the confirmed write")
+    assert [raw[2] for _, raw in t.tap.packets(mark) if raw[4] == 0x03] == [2]
+    assert t.api.post("/api/write", {"id": 2, "name": "temperature_limit",
+                                     "value": "80"})[0] == 200
+    # the factory reset's own dialog
+    p.select(2)
+    p.panel("ident")
+    p.click("reset-go")
+    p.wait(lambda: p.by("#confirm").is_displayed(), what="the reset dialog")
+    assert t.api.post("/api/select", {"id": 7})[0] == 200
+    mark = t.tap.mark()
+    p.click("confirm-yes")
+    p.wait(lambda: [r for _, r in t.tap.packets(mark) if r[4] == 0x06], what="the RESET")
+    assert [raw[2] for _, raw in t.tap.packets(mark) if raw[4] == 0x06] == [2]

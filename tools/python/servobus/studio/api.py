@@ -99,8 +99,15 @@ class Handler:
             raise Refused("The bus is busy: %s. Try again when it is done (STOP is never "
                           "refused). Nothing was sent." % self.st.busy, 409)
 
-    def units(self, deg, what, lo, hi, unit="deg"):
-        """Degrees (or deg/s) given by the page, in position units at the selected
-        servo's resolution: a number within lo..hi (in degrees), else 400."""
+    def res(self, sid):
+        """Servo sid's angle resolution as the studio knows it (0.1 deg units)."""
+        return self.st.resolution if sid == self.st.selected else \
+            self.st.resolutions.get(sid, 10)
+
+    def units(self, deg, what, lo, hi, unit="deg", sid=None):
+        """Degrees (or deg/s) given by the page, in position units at servo sid's
+        resolution (default: the selected servo's): a number within lo..hi (in
+        degrees), else 400."""
         deg = V.number(deg, what, lo, hi, unit)
-        return int(round(deg / (self.st.resolution * 0.1)))
+        res = self.st.resolution if sid is None else self.res(sid)
+        return int(round(deg / (res * 0.1)))

@@ -43,10 +43,10 @@ class Moves(Handler):
                          ("home", self.home), ("traj", self.traj)):
             app.router.add_post("/api/" + path, fn)
 
-    def _top(self, factor):
-        """The largest position (or speed, factor 0x7FFF) in degrees at the selected
-        servo's resolution."""
-        return factor * self.st.resolution * 0.1
+    def _top(self, factor, sid=None):
+        """The largest position (or speed, factor 0x7FFF) in degrees at servo sid's
+        resolution (default: the selected servo's)."""
+        return factor * (self.st.resolution if sid is None else self.res(sid)) * 0.1
 
     async def stop(self, request):
         """STOP reads nothing of the request: it is never refused for its form. It is
@@ -61,12 +61,13 @@ class Moves(Handler):
             V.fields(body, ("goal", "speed", "acc", "dec"), ("id",))
             sid = self.target(body)
             self.not_busy()
-            goal = self.units(body["goal"], "goal", 0, self._top(0xFFFF))
-            speed = self.units(body["speed"], "speed", 0, self._top(0x7FFF), "deg/s")
+            goal = self.units(body["goal"], "goal", 0, self._top(0xFFFF, sid), sid=sid)
+            speed = self.units(body["speed"], "speed", 0, self._top(0x7FFF, sid), "deg/s",
+                               sid)
             if speed < 1:
                 raise Refused("Speed %s deg/s is 0 position units/s: it would not move (0 "
                               "stops). Give at least %g deg/s. Nothing was sent." % (
-                                  body["speed"], self._top(1)), 400)
+                                  body["speed"], self._top(1, sid)), 400)
             acc = V.integer(body["acc"], "acceleration", 0, 255, ACC_UNITS)
             dec = V.integer(body["dec"], "deceleration", 0, 255, ACC_UNITS)
 
@@ -110,8 +111,8 @@ class Moves(Handler):
             V.fields(body, ("speed",), ("id",))
             sid = self.target(body)
             self.not_busy()
-            top = self._top(0x7FFF)
-            v = self.units(body["speed"], "speed", -top, top, "deg/s")
+            top = self._top(0x7FFF, sid)
+            v = self.units(body["speed"], "speed", -top, top, "deg/s", sid)
             if v:
                 await self.st.call(lambda bus: self._speed_mode(bus, sid))
             await self.st.call(lambda bus: bus.set_speed(sid, v), "ID %d: speed mode at %s "
@@ -150,7 +151,7 @@ class Moves(Handler):
             V.fields(body, ("points",), ("id",))
             sid = self.target(body)
             self.not_busy()
-            points = self._points(body["points"])
+            points = self._points(body["points"], sid)
 
             def job(bus):
                 lim = angle_limits(bus, sid)
@@ -177,7 +178,7 @@ class Moves(Handler):
                     "are" if len(outside) > 1 else "is", round(lim[0] * deg, 2),
                     round(lim[1] * deg, 2))}
 
-    def _points(self, given):
+    def _points(self, given, sid=None):
         """[(angle, speed)] in position units from [[deg, deg/s], ...] (1 to 63)."""
         if not isinstance(given, list) or not given:
             raise Refused("The trajectory has no points: give [[angle, speed], ...]. "
@@ -189,8 +190,10 @@ class Moves(Handler):
         for n, p in enumerate(given, 1):
             if not isinstance(p, list) or len(p) != 2:
                 raise Refused("Point %d is not [angle, speed]. Nothing was sent." % n, 400)
-            angle = self.units(p[0], "point %d: angle" % n, 0, self._top(0xFFFF))
-            speed = self.units(p[1], "point %d: speed" % n, 0, self._top(0xFFFF), "deg/s")
+            angle = self.units(p[0], "point %d: angle" % n, 0, self._top(0xFFFF, sid),
+                               sid=sid)
+            speed = self.units(p[1], "point %d: speed" % n, 0, self._top(0xFFFF, sid),
+                               "deg/s", sid)
             if speed < 1:
                 raise Refused("Point %d: speed %s deg/s is 0 position units/s (a point "
                               "needs a speed). Nothing was sent." % (n, p[1]), 400)

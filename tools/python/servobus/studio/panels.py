@@ -125,7 +125,7 @@ class Panels(Handler):
             sid = self.target(body)
             from .moves import Moves, angle_limits
             moves = Moves(self.st)
-            points = moves._points(body["points"])  # as the Motion panel's
+            points = moves._points(body["points"], sid)  # as the Motion panel's
 
             def job(bus):
                 variant = bus.variant(sid)

@@ -36,7 +36,14 @@ function say(text, kind) {
 // here without the studio's consent). The server checks every value (servobus/values.py)
 // and answers a sentence; a setting that would lock the servo out comes back with
 // "confirm", and is sent again only if the user says so.
+// Actions on one servo name it: the one selected when the user acted. The selection is
+// shared by every tab, so without its ID a confirmed write (or anything clicked while
+// another tab, or a scan, changed the selection) would go to another servo.
+const TARGETED = new Set(["/api/write", "/api/move", "/api/speed", "/api/home", "/api/traj",
+  "/api/setid", "/api/reset", "/api/plan", "/api/config/save", "/api/config/restore"]);
 async function post(path, body, raw) {
+  if (!raw && TARGETED.has(path) && body && !("id" in body) && selected() !== null)
+    body = Object.assign({ id: selected() }, body);
   let r;
   try {
     r = await fetch(path, raw ?
@@ -565,7 +572,8 @@ $("reset-go").addEventListener("click", async () => {
     "Every setting of this servo goes back to its factory value and its ID becomes 1." +
     (one ? " ID 1 is already used by the " + one.variant + ", so the studio will refuse: " +
       "give that servo another ID first." : ""), "Reset to factory values");
-  if (yes && await post("/api/reset", { yes: true })) say("Factory reset done; scanning again.", "ok");
+  // the ID asked about, even if the selection changed while the dialog was open
+  if (yes && await post("/api/reset", { yes: true, id: s.id })) say("Factory reset done; scanning again.", "ok");
 });
 $("confirm-no").addEventListener("click", () => answer(false));
 $("confirm-yes").addEventListener("click", () => answer(true));
