@@ -104,6 +104,10 @@ def test_hand_edited_config_and_group_moves_are_refused_in_words(tapped):
             raise AssertionError("a list for the variant passed the check")
         except RangeError as e:
             assert "variant" in str(e)
+    # a register's name starts the sentence as it is (before: "Id: 254 is out of range")
+    status, answer = t.api.post("/api/config/restore", {"config": dict(doc, settings=dict(
+        doc["settings"], id=254)), "id": 7, "with_id": True})
+    assert status == 400 and answer["error"].startswith("id: 254 is out of range"), answer
     # two keys for one servo: before, one servo moved, to the last goal, though the
     # form asks for at least two
     status, answer = t.api.post("/api/group", {"goals": {"2": 10, "2.0": 20},

@@ -19,7 +19,7 @@ def sentence(text):
     """text as a sentence: a capital first, a full stop last."""
     text = " ".join(str(text).split())
     first = text.split(" ", 1)[0].rstrip(":,")
-    if first.isalpha() and first.islower():  # not a register's name: return_delay stays
+    if first.isalpha() and first.islower() and first not in REGISTERS:  # id stays id
         text = text[0].upper() + text[1:]
     return text if text.endswith((".", "!", "?")) else text + "."
 
