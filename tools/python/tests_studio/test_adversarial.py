@@ -519,3 +519,24 @@ def test_a_confirmation_goes_to_the_servo_it_asked_about(tapped, page):
     p.click("confirm-yes")
     p.wait(lambda: [r for _, r in t.tap.packets(mark) if r[4] == 0x06], what="the RESET")
     assert [raw[2] for _, raw in t.tap.packets(mark) if raw[4] == 0x06] == [2]
+
+
+def test_one_serial_adapter_under_two_names_is_one_bus(studio_factory, tmp_path):
+    # a pseudo-terminal stands for a USB adapter, a symlink for its /dev/serial/by-id/
+    # name: before, the second studio took another lock file, opened the same device,
+    # and both talked on one wire
+    import os
+    from servobus.studio.process import run_studio
+    master, slave = os.openpty()
+    try:
+        device = os.ttyname(slave)
+        alias = tmp_path / "usb-FTDI_adapter-if00-port0"
+        alias.symlink_to(device)
+        first = studio_factory(device, "--baud", "115200")
+        assert first.token
+        rc, out, err = run_studio("--port", str(alias), "--listen", "127.0.0.1:0",
+                                  timeout=20)
+        assert rc == 1 and "is in use" in err and "Servo Studio" in err, (rc, out, err)
+    finally:
+        os.close(master)
+        os.close(slave)
