@@ -50,7 +50,8 @@ def check(doc):
         raise RangeError("not a servo configuration file (its \"format\" is not %r)" %
                          FORMAT)
     from .registers import VARIANTS
-    variant = VARIANTS.get(doc.get("variant"))
+    given = doc.get("variant")
+    variant = VARIANTS.get(given) if isinstance(given, str) else None  # a list: no 500
     if variant is None:
         raise RangeError("the file's variant %r is not one of %s" % (
             doc.get("variant"), ", ".join(VARIANTS)))

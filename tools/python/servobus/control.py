@@ -291,10 +291,19 @@ class Control:
                     self.write(servo_id, "clear_unload", clear)
                 confirmed = confirmed and self.confirmed
                 continue
+            sent = None
             try:
                 self._unchanged = self._same_eeprom(servo_id, rv)
+                sent = self.packets_sent  # the WRITE is write()'s first packet
                 self.write(servo_id, rv, check_variant=False)
-            except Interrupted:  # a STOP goes through every check
+            except Interrupted as e:  # a STOP goes through every check: say what is in
+                # (a WRITE that went out is in force, its answer cut short or not)
+                upto = i + 1 if sent is not None and self.packets_sent > sent else i
+                e.written = {k: v for done in steps[:upto] if done for k, v in done.items()}
+                e.unwritten = {k: v for rest in steps[upto:] if rest
+                               for k, v in rest.items()}
+                if clear is not None and None in steps[upto:]:
+                    e.unwritten["clear_unload"] = clear
                 raise
             except ServoBusError:
                 self._write_back(servo_id, before[:i])

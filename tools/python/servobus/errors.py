@@ -21,7 +21,12 @@ class BusTimeout(ServoBusError):
 
 class Interrupted(ServoBusError):
     """A job cut short because the Bus's stop_event was set (Servo Studio's STOP): at
-    the next packet boundary, before anything more was sent."""
+    the next packet boundary, before anything more was sent. written: the registers a
+    write of several (Bus.write_many) had written before it was cut short, and
+    unwritten: the ones it had not ({name: value}; empty for other jobs)."""
+
+    written = {}
+    unwritten = {}
 
 
 class ProtocolError(ServoBusError):

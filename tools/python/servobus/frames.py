@@ -144,6 +144,13 @@ def decode_status(raw, request=None, resolution=10):
     return out
 
 
+def looks_like_hex(text):
+    """Is text meant as a frame in hex (only hex digits, spaces, commas, colons and 0x),
+    rather than a command?"""
+    digits = re.sub(r"(0x|[\s,:])", "", text.strip(), flags=re.I)
+    return bool(digits) and re.fullmatch(r"[0-9a-fA-F]*", digits) is not None
+
+
 def parse_hex(text):
     """The frame for hex a person typed: `D5 5D ID LEN INS P.. [CHK]`, the header
     optional, the checksum filled in when left out. RangeError with a sentence for

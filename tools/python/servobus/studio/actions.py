@@ -9,7 +9,7 @@ from aiohttp import web
 
 from .. import values as V
 from ..protection import CLEAR_WINDOW_S, SAFETY_DRAIN_S
-from ..registers import BAUD_RATES, baud_of_code, register
+from ..registers import BAUD_RATES, register
 from .api import Handler, ok
 from .flows import do_scan, finish_update, start_update
 from .jobs import Refused
@@ -105,15 +105,13 @@ class Actions(Handler):
 
         def job(bus):
             bus.write(sid, reg.name, value)
-            if reg.name == "baud_rate" and not bus.is_tcp:
-                # the servo answers at its new baud from now on: follow it
-                baud = baud_of_code(value, bus.variant(sid))
-                bus.set_baud(baud)
-                st.state["baud"] = baud
-                for s in st.state["servos"]:
-                    if s["id"] == sid:
-                        s["heard_baud"] = s["baud"] = baud
-            return bus.read(sid, reg.name) if reg.readable else value
+            if reg.name == "baud_rate":  # it answers at its new baud from now on
+                st.follow_baud(bus, sid, value)
+            if reg.name == "angle_resolution":  # degrees mean other units from now on
+                st.set_resolution(sid, value)
+            if not reg.readable or (reg.name == "status_return_level" and value == 0):
+                return value  # at level 0 it answers nothing but PING: no read-back
+            return bus.read(sid, reg.name)
         return job
 
     async def _clear(self, sid):
@@ -140,10 +138,7 @@ class Actions(Handler):
             # Bus.set_id PINGs the new ID at every baud the port reaches first
             await self.st.call(lambda bus: bus.set_id(sid, new), "ID %d: set ID to %d" % (
                 sid, new))
-            for s in self.st.state["servos"]:
-                if s["id"] == sid:
-                    s["id"] = new
-            self.st.state["servos"].sort(key=lambda s: s["id"])
+            self.st.renumbered(sid, new)
             await self.st.call(self.st.select(new))
             self.st.changed()
             return ok(id=new)

@@ -4,7 +4,8 @@ refusals mapped to HTTP statuses, every answer JSON.
     {"ok": true, ...}                              200
     {"ok": false, "error": sentence, "sent": bool}  4xx, never 5xx for what was given
 
-400: what was given is wrong (values.py says why), nothing sent. 403: not the studio's
+400: what was given is wrong (values.py says why), nothing sent. 413: more than 1 MiB,
+nothing sent. 403: not the studio's
 page (security.py). 409: not now (busy, no servo selected, the bus gone, a setting
 that needs confirming, cancelled by STOP), nothing sent. 422: sent, and the bus or a
 servo said no (a time-out, a refusal)."""
@@ -66,6 +67,11 @@ class Handler:
         that is not a refusal is raised again (a bug: the server answers 500)."""
         if isinstance(e, Refused):
             return sentence(e), e.status, e.sent, e.extra
+        if isinstance(e, web.HTTPRequestEntityTooLarge):  # aiohttp's words are no sentence
+            return ("This is more than the studio takes in one request (1 MiB): a "
+                    "firmware image is the stamped .bin of tools/fwstamp.py (tens of "
+                    "KiB, not the .elf), a configuration file a few hundred bytes. "
+                    "Nothing was sent."), 413, False, {}
         if isinstance(e, (RangeError, UnknownRegister, ImageError)):
             return sentence(e) + " Nothing was sent.", 400, False, {}
         if isinstance(e, IdTaken):
@@ -93,8 +99,15 @@ class Handler:
             raise Refused("The bus is busy: %s. Try again when it is done (STOP is never "
                           "refused). Nothing was sent." % self.st.busy, 409)
 
-    def units(self, deg, what, lo, hi, unit="deg"):
-        """Degrees (or deg/s) given by the page, in position units at the selected
-        servo's resolution: a number within lo..hi (in degrees), else 400."""
+    def res(self, sid):
+        """Servo sid's angle resolution as the studio knows it (0.1 deg units)."""
+        return self.st.resolution if sid == self.st.selected else \
+            self.st.resolutions.get(sid, 10)
+
+    def units(self, deg, what, lo, hi, unit="deg", sid=None):
+        """Degrees (or deg/s) given by the page, in position units at servo sid's
+        resolution (default: the selected servo's): a number within lo..hi (in
+        degrees), else 400."""
         deg = V.number(deg, what, lo, hi, unit)
-        return int(round(deg / (self.st.resolution * 0.1)))
+        res = self.st.resolution if sid is None else self.res(sid)
+        return int(round(deg / (res * 0.1)))

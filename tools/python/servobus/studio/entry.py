@@ -27,6 +27,36 @@ _MOTION_INS = (P.ACTION, P.TRAJ_ACTION, P.START_END, P.CUSTOM)
 _STATIC_LOCKOUT = {"status_return_level": lambda v: v == 0, "baud_rate": lambda v: True}
 
 
+# servoctl's commands that the console does not run, and where the studio does them
+ELSEWHERE = {
+    "studio": "this is the studio (one per bus)",
+    "update": "use the Firmware panel, which checks the whole image first",
+    "set-id": "use the ID & reset panel, which checks that the new ID is free first",
+    "reset": "use the ID & reset panel, which asks first (or send the RESET frame in hex, "
+             "which asks too)",
+    "config": "use the Configuration files panel (save, restore, diff)",
+    "scan": "use the Scan panel (Scan again, or every baud)",
+    "monitor": "use the Live plot, Plot any register or All servos (the studio reads "
+               "the servos all the time)",
+}
+# servoctl's options that take a value (before or after the command)
+_VALUED = ("--port", "--baud", "--id", "--timeout")
+
+
+def _command_word(words):
+    """The command of a servoctl command line (its first word that is neither an option
+    nor an option's value), or None."""
+    skip = False
+    for w in words:
+        if skip:
+            skip = False
+        elif w.startswith("-"):
+            skip = w in _VALUED
+        else:
+            return w
+    return None
+
+
 def _whole_registers(sid, fields):
     """{name: value} of a WRITE's data; 400 for bytes that are not whole registers."""
     named = {}
@@ -61,10 +91,9 @@ class Entry(Handler):
                 raise Refused("Type a frame in hex (D5 5D 01 04 02 24 02) or a servoctl "
                               "command (get present_position). Nothing was sent.", 400)
             self.not_busy()
-            words = text.split()
-            if words[0] == "servoctl" or words[0] in COMMANDS or words[0].startswith("-"):
-                return await self._command(text, confirm)
-            return await self._frame(text, confirm)
+            if F.looks_like_hex(text):
+                return await self._frame(text, confirm)
+            return await self._command(text, confirm)
         return await self.handle(request, go)
 
     # ---- a frame in hex -------------------------------------------------------------
@@ -84,8 +113,9 @@ class Entry(Handler):
                           409, confirm="RESET: every setting of ID %d goes back to its "
                           "factory value (ID 1, the default baud)." % sid)
         named = await self._check_writes(sid, ins, params, confirm)
+        per_id = self._sync_resolutions(sid, ins, params)
         motion = ins in _MOTION_INS or any(n in MOTION_REGISTERS for n in named)
-        rec = self.st.recorder
+        rec, st = self.st.recorder, self.st
 
         def job(bus):
             first = rec.mark()
@@ -93,8 +123,19 @@ class Entry(Handler):
                 if sid == P.BROADCAST and ins == P.PING:
                     bus.scan()  # the same broadcast PING, its ID slots listened to
                 else:
+                    if ins == P.REG_WRITE:  # held: a group move's ACTION replaces it
+                        st.held.update(s["id"] for s in st.state["servos"]) if \
+                            sid == P.BROADCAST else st.held.add(sid)
                     bus.transact(sid, ins, params, nbytes=params[1] + 6 if ins == P.READ
                                  and len(params) == 2 else 7, motion=ins in _MOTION_INS)
+                    if ins == P.ACTION:
+                        st.held.clear() if sid == P.BROADCAST else st.held.discard(sid)
+                    if "angle_resolution" in named and ins == P.WRITE:
+                        for i in ([s["id"] for s in st.state["servos"]]
+                                  if sid == P.BROADCAST else [sid]):
+                            st.set_resolution(i, named["angle_resolution"])
+                    for i, value in per_id.items():  # a SYNC WRITE of register 13
+                        st.set_resolution(i, value)
             except ServoBusError as e:
                 return first, rec.mark(), in_words(e, bus.baud)
             return first, rec.mark(), ""
@@ -102,6 +143,15 @@ class Entry(Handler):
         first, last, error = await self.st.call(
             job, "%s to ID %d (%s)" % (what, sid, raw.hex(" ")), motion=motion)
         return ok(frames=rec.between(first, last), error=error)
+
+    @staticmethod
+    def _sync_resolutions(sid, ins, params):
+        """{ID: angle resolution} a SYNC WRITE sets (the studio's degrees follow it)."""
+        if ins != P.SYNC_WRITE:
+            return {}
+        d = F.decode_instruction(P.instruction(sid, ins, params))
+        return {int(name[3:].split(": ", 1)[0]): value for name, value, _ in d["fields"]
+                if name.endswith(": angle_resolution")}
 
     async def _check_writes(self, sid, ins, params, confirm):
         """The registers a WRITE, REG WRITE or SYNC WRITE carries, checked as a form's
@@ -147,17 +197,34 @@ class Entry(Handler):
         except ValueError as e:
             raise Refused("The command does not parse: %s. Nothing was sent." % e, 400) \
                 from None
-        words = words[1:] if words[0] == "servoctl" else words
+        words = words[1:] if words and words[0] == "servoctl" else words
         refused = [w for w in words if re.match(r"--(port|baud|force|yes)\b", w)]
         if refused:
             raise Refused("%s: the console talks on the studio's own bus, and asks before "
                           "a setting that locks a servo out (no --force). Nothing was "
                           "sent." % refused[0], 400)
-        err = io.StringIO()
-        with contextlib.redirect_stderr(err):
+        waits = [w for w in words if re.match(r"--wait\b", w)]
+        if waits:
+            raise Refused("%s: the console does not hold the bus while a servo moves (the "
+                          "studio's other actions and its live values would wait behind "
+                          "it); the studio keeps reading the servo: watch the Live plot "
+                          "or All servos. Nothing was sent." % waits[0], 400)
+        command = _command_word(words)
+        if command in ELSEWHERE:
+            raise Refused("`%s` is not taken in the console: %s. Nothing was sent." % (
+                command, ELSEWHERE[command]), 400)
+        if command is not None and command not in COMMANDS and \
+                not any(w in ("-h", "--help") for w in words):
+            raise Refused("'%s' is neither a command the console takes (%s) nor a frame in "
+                          "hex (D5 5D 02 04 02 24 02). Nothing was sent." % (
+                              command, ", ".join(COMMANDS)), 400)
+        err, out = io.StringIO(), io.StringIO()
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out):
             try:
                 args = build_parser().parse_args(words)
-            except SystemExit:
+            except SystemExit as e:
+                if e.code == 0 and out.getvalue():  # -h: the help, nothing sent
+                    return ok(output=out.getvalue(), frames=[])
                 args = None
         if args is None or args.command not in COMMANDS:
             why = err.getvalue().strip().splitlines()
@@ -171,7 +238,10 @@ class Entry(Handler):
 
         def job(bus):
             first = rec.mark()
-            return first, self._run(bus, args), rec.mark()
+            out = self._run(bus, args)
+            if "angle_resolution" in getattr(args, "written", {}):
+                self.st.set_resolution(args.id, args.written["angle_resolution"])
+            return first, out, rec.mark()
         first, out, last = await self.st.call(job, "console: servoctl " + " ".join(words),
                                               motion=args.command in ("move", "speed",
                                                                       "home", "traj"))
@@ -188,6 +258,7 @@ class Entry(Handler):
             rest = {k: v for k, v in values.items() if k != "clear_unload"}
             if rest:
                 bus.plan_write(args.id, rest)
+            args.written = values  # what the set writes (the studio's degrees follow)
             return bus.lockout(args.id, values)
         reasons = await self.st.call(check)
         if reasons and not confirm:

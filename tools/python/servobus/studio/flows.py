@@ -116,6 +116,9 @@ async def do_scan(st, all_bauds, baud=None):
         found, dups = await _scan_bauds(st, bauds)
         servos = await _details(st, found)
         st.state["servos"] = servos
+        if baud is None or all_bauds:  # the studio's whole bus
+            # a servo gone from the bus lost its RAM, a held REG WRITE with it
+            st.held.intersection_update(s["id"] for s in servos)
         sc["warning"] = _duplicate_warning(dups)
         sc["message"] = ("%d servo%s found at %s." % (len(servos), "" if len(servos) == 1
                                                         else "s", where) if servos else

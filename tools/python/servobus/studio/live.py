@@ -45,7 +45,9 @@ class Live:
     def __init__(self, st):
         self.st = st
         self.dash_on = False
-        self.picks = {}        # {ID: [register names]} for the register plot
+        self.dash_tabs = set()  # the tabs showing the dashboard
+        self.tab_picks = {}    # tab -> {ID: [register names]}: each tab's own traces
+        self.picks = {}        # {ID: [register names]}: every tab's, read once
         self.reads = []        # polling.plan_reads(picks)
         self.info = {}         # ID -> {"mode", "resolution", "delay"} from the slow READ
         self.mode_due = {}
@@ -54,11 +56,40 @@ class Live:
     def active(self):
         return self.dash_on or bool(self.reads)
 
-    def set_picks(self, picks, baud):
-        self.picks = picks
-        self.reads = Poll.plan_reads(picks, baud=baud) if picks else []
+    def set_picks(self, tab, picks, baud):
+        """Tab's traces (a tab never replaces another's: each shows its own, and the
+        worker reads the registers of every tab's, once); the READs of them all."""
+        if picks:
+            self.tab_picks[tab] = picks
+        else:
+            self.tab_picks.pop(tab, None)
+        return self._replan(baud)
+
+    def _replan(self, baud):
+        merged = {}
+        for picks in self.tab_picks.values():
+            for sid, names in picks.items():
+                have = merged.setdefault(sid, [])
+                have += [n for n in names if n not in have]
+        self.picks = merged
+        self.reads = Poll.plan_reads(merged, baud=baud) if merged else []
         self.scope_rate = Rate()
         return self.reads
+
+    def set_dash(self, tab, on):
+        """The dashboard polls while at least one tab shows it."""
+        if on:
+            self.dash_tabs.add(tab)
+        else:
+            self.dash_tabs.discard(tab)
+        self.dash_on = bool(self.dash_tabs)
+        return on
+
+    def drop_tab(self, tab, baud):
+        """A tab closed: its traces and its dashboard go with it."""
+        self.set_dash(tab, False)
+        if self.tab_picks.pop(tab, None) is not None:
+            self._replan(baud)
 
     def ids(self):
         return [s["id"] for s in self.st.state["servos"]]

@@ -7,7 +7,11 @@ import tempfile
 
 
 def lock_path(port):
-    """The lock file that makes one studio process own one bus."""
+    """The lock file that makes one studio process own one bus. A serial device is
+    named by its real path: /dev/serial/by-id/... and /dev/ttyUSB0 are one adapter
+    (before, two studios opened it under two names and interleaved on the wire)."""
+    if "://" not in port:
+        port = os.path.realpath(port)
     safe = re.sub(r"[^A-Za-z0-9]+", "_", port).strip("_")
     return os.path.join(tempfile.gettempdir(), "servobus-studio-%s.lock" % safe)
 

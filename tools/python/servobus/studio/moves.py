@@ -12,6 +12,29 @@ from .jobs import Refused
 ACC_UNITS = "x10 deg/s^2"
 
 
+def held_goal(bus, sid, goal):
+    """After a goal was written (worker thread): None if the servo holds it, else (held,
+    asked, CW limit, CCW limit) in position units — the servo clamps a goal to its angle
+    limits (registers 6-9) and says nothing."""
+    held = bus.read(sid, "goal_position")
+    if held == goal:
+        return None
+    lim = bus.read_many(sid, ["cw_angle_limit", "ccw_angle_limit"])
+    return held, goal, lim["cw_angle_limit"], lim["ccw_angle_limit"]
+
+
+def angle_limits(bus, sid):
+    """(CW, CCW) angle limits in position units that the servo clamps a goal or a
+    trajectory point to, or None in speed mode (the base; both limits 0): src/regs.c
+    regs_clamp_goal()."""
+    variant = bus.variant(sid)
+    if variant is not None and not REGISTERS["acceleration"].applies_to(variant):
+        return None
+    lim = bus.read_many(sid, ["cw_angle_limit", "ccw_angle_limit"])
+    lo, hi = lim["cw_angle_limit"], lim["ccw_angle_limit"]
+    return None if lo == 0 and hi == 0 else (lo, hi)
+
+
 class Moves(Handler):
     """POST /api/stop, /api/move, /api/speed, /api/home, /api/traj."""
 
@@ -20,10 +43,10 @@ class Moves(Handler):
                          ("home", self.home), ("traj", self.traj)):
             app.router.add_post("/api/" + path, fn)
 
-    def _top(self, factor):
-        """The largest position (or speed, factor 0x7FFF) in degrees at the selected
-        servo's resolution."""
-        return factor * self.st.resolution * 0.1
+    def _top(self, factor, sid=None):
+        """The largest position (or speed, factor 0x7FFF) in degrees at servo sid's
+        resolution (default: the selected servo's)."""
+        return factor * (self.st.resolution if sid is None else self.res(sid)) * 0.1
 
     async def stop(self, request):
         """STOP reads nothing of the request: it is never refused for its form. It is
@@ -38,12 +61,13 @@ class Moves(Handler):
             V.fields(body, ("goal", "speed", "acc", "dec"), ("id",))
             sid = self.target(body)
             self.not_busy()
-            goal = self.units(body["goal"], "goal", 0, self._top(0xFFFF))
-            speed = self.units(body["speed"], "speed", 0, self._top(0x7FFF), "deg/s")
+            goal = self.units(body["goal"], "goal", 0, self._top(0xFFFF, sid), sid=sid)
+            speed = self.units(body["speed"], "speed", 0, self._top(0x7FFF, sid), "deg/s",
+                               sid)
             if speed < 1:
                 raise Refused("Speed %s deg/s is 0 position units/s: it would not move (0 "
                               "stops). Give at least %g deg/s. Nothing was sent." % (
-                                  body["speed"], self._top(1)), 400)
+                                  body["speed"], self._top(1, sid)), 400)
             acc = V.integer(body["acc"], "acceleration", 0, 255, ACC_UNITS)
             dec = V.integer(body["dec"], "deceleration", 0, 255, ACC_UNITS)
 
@@ -53,20 +77,42 @@ class Moves(Handler):
                     # goal register (and the plot) shows the target
                     bus.write(sid, {"goal_position": goal, "moving_speed": speed,
                                     "acceleration": acc, "deceleration": dec})
-                else:  # the base: ramps are EEPROM registers, CUSTOM MOVE carries them
-                    bus.move_absolute(sid, goal, speed, acc, dec)
-            await self.st.call(job, "ID %d: move to %s deg at %s deg/s (acc %d, dec %d)" % (
-                sid, body["goal"], body["speed"], acc, dec), motion=True)
-            return ok()
+                    return held_goal(bus, sid, goal)
+                # the base: ramps are EEPROM registers, CUSTOM MOVE carries them; its
+                # goal is relative to where it is (no angle limits to clamp to)
+                bus.move_absolute(sid, goal, speed, acc, dec)
+                return None
+            clamp = await self.st.call(job, "ID %d: move to %s deg at %s deg/s (acc %d, "
+                                       "dec %d)" % (sid, body["goal"], body["speed"], acc,
+                                                    dec), motion=True)
+            return ok(**self.clamped(sid, clamp))
         return await self.handle(request, go)
+
+    def clamped(self, sid, clamp):
+        """The answer's fields for a goal the servo clamped (clamp: held_goal()'s), with
+        the sentence the page shows."""
+        if not clamp:
+            return {}
+        held, asked, lo, hi = (round(v * self.st.resolutions.get(sid, 10) * 0.1, 2)
+                               for v in clamp)
+        if lo <= asked <= hi:  # not a clamp: the servo did not take the move at all
+            note = ("ID %d did not take the goal of %g deg (its goal is %g deg): an arm, "
+                    "wrist or finger refuses motion until it is homed, and an unload "
+                    "refuses it too (Safety)." % (sid, asked, held))
+        else:
+            note = ("ID %d: %g deg is outside its angle limits (%g..%g deg): it goes to "
+                    "%g deg instead (the servo clamps the goal)." % (sid, asked, lo, hi,
+                                                                      held))
+        return {"clamped": {"asked": asked, "held": held, "limits": [lo, hi]},
+                "note": note}
 
     async def speed(self, request):
         async def go(body):
             V.fields(body, ("speed",), ("id",))
             sid = self.target(body)
             self.not_busy()
-            top = self._top(0x7FFF)
-            v = self.units(body["speed"], "speed", -top, top, "deg/s")
+            top = self._top(0x7FFF, sid)
+            v = self.units(body["speed"], "speed", -top, top, "deg/s", sid)
             if v:
                 await self.st.call(lambda bus: self._speed_mode(bus, sid))
             await self.st.call(lambda bus: bus.set_speed(sid, v), "ID %d: speed mode at %s "
@@ -105,17 +151,34 @@ class Moves(Handler):
             V.fields(body, ("points",), ("id",))
             sid = self.target(body)
             self.not_busy()
-            points = self._points(body["points"])
+            points = self._points(body["points"], sid)
 
             def job(bus):
+                lim = angle_limits(bus, sid)
                 bus.trajectory_write(sid, points)
                 bus.trajectory_action(sid)
-            await self.st.call(job, "ID %d: trajectory of %d points, run" % (
+                return lim
+            lim = await self.st.call(job, "ID %d: trajectory of %d points, run" % (
                 sid, len(points)), motion=True)
-            return ok()
+            return ok(**self.points_clamped(sid, points, lim))
         return await self.handle(request, go)
 
-    def _points(self, given):
+    def points_clamped(self, sid, points, lim):
+        """The answer's note for trajectory points outside the angle limits lim (the
+        servo clamps each: src/traj.c), or nothing."""
+        outside = [n for n, (a, _) in enumerate(points, 1) if lim and not
+                   lim[0] <= a <= lim[1]]
+        if not outside:
+            return {}
+        deg = self.st.resolutions.get(sid, 10) * 0.1
+        return {"outside": outside, "note": "ID %d: point%s %s (%s deg) %s outside its angle "
+                "limits (%g..%g deg): the servo goes to the nearest limit instead." % (
+                    sid, "s" if len(outside) > 1 else "", ", ".join(map(str, outside)),
+                    ", ".join("%g" % round(points[n - 1][0] * deg, 2) for n in outside),
+                    "are" if len(outside) > 1 else "is", round(lim[0] * deg, 2),
+                    round(lim[1] * deg, 2))}
+
+    def _points(self, given, sid=None):
         """[(angle, speed)] in position units from [[deg, deg/s], ...] (1 to 63)."""
         if not isinstance(given, list) or not given:
             raise Refused("The trajectory has no points: give [[angle, speed], ...]. "
@@ -127,8 +190,10 @@ class Moves(Handler):
         for n, p in enumerate(given, 1):
             if not isinstance(p, list) or len(p) != 2:
                 raise Refused("Point %d is not [angle, speed]. Nothing was sent." % n, 400)
-            angle = self.units(p[0], "point %d: angle" % n, 0, self._top(0xFFFF))
-            speed = self.units(p[1], "point %d: speed" % n, 0, self._top(0xFFFF), "deg/s")
+            angle = self.units(p[0], "point %d: angle" % n, 0, self._top(0xFFFF, sid),
+                               sid=sid)
+            speed = self.units(p[1], "point %d: speed" % n, 0, self._top(0xFFFF, sid),
+                               "deg/s", sid)
             if speed < 1:
                 raise Refused("Point %d: speed %s deg/s is 0 position units/s (a point "
                               "needs a speed). Nothing was sent." % (n, p[1]), 400)

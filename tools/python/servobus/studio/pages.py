@@ -53,6 +53,7 @@ class Pages:
         """The live state for a tab. Opening one sends nothing on the bus: the studio
         scanned when it started, and scans again only when asked."""
         st = self.st
+        tab = request.query.get("tab")  # the page's name for itself (its traces)
         ws = web.WebSocketResponse(heartbeat=20)
         await ws.prepare(request)
         st.clients.add(ws)
@@ -63,4 +64,6 @@ class Pages:
                     break
         finally:
             st.clients.discard(ws)
+            if tab:  # a closed tab's traces and dashboard are read no more
+                st.live.drop_tab(tab, st.state["baud"])
         return ws

@@ -8,9 +8,10 @@ from .. import planner
 from .. import protocol as P
 from .. import values as V
 from ..registers import REGISTERS, register, variant_by_model
+from .. import Interrupted, ServoBusError
 from .api import Handler, ok
 from .jobs import Refused
-from .words import sentence
+from .words import is_link_error, sentence
 
 MAX_TRACES = 12
 
@@ -36,15 +37,17 @@ class Panels(Handler):
 
     async def dashboard(self, request):
         async def go(body):
-            V.fields(body, ("on",))
-            self.st.live.dash_on = V.flag(body["on"], "on")
+            V.fields(body, ("on",), ("tab",))
+            on = V.flag(body["on"], "on")
+            self.st.live.set_dash(_tab(body), on)
             self.st.wake()
-            return ok(on=self.st.live.dash_on)
+            return ok(on=on, polling=self.st.live.dash_on)
         return await self.handle(request, go)
 
     async def scope(self, request):
         async def go(body):
-            V.fields(body, ("picks",))
+            V.fields(body, ("picks",), ("tab",))
+            tab = _tab(body)
             if not isinstance(body["picks"], list) or len(body["picks"]) > MAX_TRACES:
                 raise Refused("'picks' must be a list of at most %d {id, register}. "
                               "Nothing was sent." % MAX_TRACES, 400)
@@ -64,7 +67,7 @@ class Panels(Handler):
                     raise Refused("%s does not exist on ID %d (the %s). Nothing was sent." % (
                         r.name, sid, variant.name), 400)
                 picks.setdefault(sid, []).append(r.name)
-            reads = self.st.live.set_picks(picks, self.st.state["baud"])
+            reads = self.st.live.set_picks(tab, picks, self.st.state["baud"])
             self.st.wake()
             return ok(reads=[[sid, a, n] for sid, a, n, _ in reads])
         return await self.handle(request, go)
@@ -83,15 +86,23 @@ class Panels(Handler):
                 raise Refused("Pick at least two servos (goals: {ID: degrees}). Nothing was "
                               "sent.", 400)
             self.not_busy()
-            values = {}
+            values, keys = {}, {}
             for key, deg in body["goals"].items():
                 sid = V.servo_id(key, "ID")
+                if sid in keys:  # '1' and '1.0': one servo, two goals
+                    raise Refused("ID %d is given twice ('%s' and '%s'): give each servo "
+                                  "one goal. Nothing was sent." % (sid, keys[sid], key), 400)
+                keys[sid] = key
                 values[sid] = self._goal(sid, deg, body["speed"])
-            job = _group_job(values, how)
-            await self.st.call(job, "IDs %s: move together (%s)" % (
+            job = _group_job(self.st, values, how)
+            clamps = await self.st.call(job, "IDs %s: move together (%s)" % (
                 ", ".join(map(str, sorted(values))), "REG WRITE, broadcast ACTION"
                 if how == "action" else "SYNC WRITE"), motion=True)
-            return ok(ids=sorted(values))
+            from .moves import Moves
+            said = {sid: Moves(self.st).clamped(sid, c) for sid, c in sorted(clamps.items())}
+            extra = {"note": " ".join(n["note"] for n in said.values())} if said else {}
+            return ok(ids=sorted(values),
+                      clamped={sid: n["clamped"] for sid, n in said.items()}, **extra)
         return await self.handle(request, go)
 
     def _goal(self, sid, deg, speed):
@@ -112,8 +123,9 @@ class Panels(Handler):
         async def go(body):
             V.fields(body, ("points",), ("id",))
             sid = self.target(body)
-            from .moves import Moves
-            points = Moves(self.st)._points(body["points"])  # as the Motion panel's
+            from .moves import Moves, angle_limits
+            moves = Moves(self.st)
+            points = moves._points(body["points"], sid)  # as the Motion panel's
 
             def job(bus):
                 variant = bus.variant(sid)
@@ -122,14 +134,16 @@ class Panels(Handler):
                                                               "base_deceleration")
                 v = bus.read_many(sid, [variant.position_register.name, "angle_resolution",
                                         *ramps])
-                return v, ramps
-            v, ramps = await self.st.call(job)
+                return v, ramps, angle_limits(bus, sid)
+            v, ramps, lim = await self.st.call(job)
             res = v["angle_resolution"] or 10
             start = v[[k for k in v if k in ("turned_angle", "present_position")][0]]
-            prof = planner.trajectory(start, points, res, v[ramps[0]], v[ramps[1]])
+            # the servo clamps each point to its angle limits (src/traj.c): so does the plan
+            held = [(min(max(a, lim[0]), lim[1]) if lim else a, sp) for a, sp in points]
+            prof = planner.trajectory(start, held, res, v[ramps[0]], v[ramps[1]])
             deg = res * 0.1
             return ok(profile=[[t, round(p * deg, 2)] for t, p in prof],
-                      duration=prof[-1][0])
+                      duration=prof[-1][0], **moves.points_clamped(sid, points, lim))
         return await self.handle(request, go)
 
     async def config_save(self, request):
@@ -155,12 +169,30 @@ class Panels(Handler):
                 raise Refused("%s Confirm to restore it anyway. Nothing was written." %
                               sentence(reasons[0]), 409, confirm=sentence(reasons[0]))
             if changes:
-                await self.st.call(lambda bus: C.restore(bus, sid, changes),
-                                   "ID %d: restore %d settings (%s)" % (
-                                       sid, len(changes), ", ".join(changes)))
+                await self.st.call(self._restore_job(sid, changes),
+                                   "ID %d: restore %d setting%s (%s)" % (
+                                       sid, len(changes), "" if len(changes) == 1 else
+                                       "s", ", ".join(changes)))
+            if "id" in changes:  # the servo answers at its new ID: the studio follows it
+                self.st.renumbered(sid, changes["id"])
+                if self.st.selected == sid:
+                    await self.st.call(self.st.select(changes["id"]))
+                self.st.changed()
             self.st.table_due = 0.0
             return ok(changes=changes, writes=len(runs))
         return await self.handle(request, go)
+
+    def _restore_job(self, sid, changes):
+        st = self.st
+
+        def job(bus):
+            variant = bus.variant(sid)  # while it answers at this ID and baud
+            C.restore(bus, sid, changes)
+            if "angle_resolution" in changes:
+                st.set_resolution(changes.get("id", sid), changes["angle_resolution"])
+            if "baud_rate" in changes:  # written last (plan_write), at the new ID if any
+                st.follow_baud(bus, changes.get("id", sid), changes["baud_rate"], variant)
+        return job
 
     async def config_diff(self, request):
         async def go(body):
@@ -178,12 +210,49 @@ class Panels(Handler):
         return await self.handle(request, go)
 
 
-def _group_job(values, how):
+def _tab(body):
+    """The tab a plot or dashboard request is for (the page sends the name it gave its
+    WebSocket; a script that sends none is one tab of its own)."""
+    tab = body.get("tab", "")
+    if not isinstance(tab, str) or len(tab) > 64:
+        raise Refused("'tab' must be the page's tab name (text, at most 64 characters). "
+                      "Nothing was sent.", 400)
+    return tab
+
+
+def _group_job(st, values, how):
+    """The job of a group move; {ID: held_goal()} for the servos that clamped their
+    goal to their angle limits. No goal is left held for a later ACTION: a REG WRITE of
+    a move cut short (a servo that does not answer, a STOP) is replaced (Studio.unhold),
+    and a broadcast ACTION is refused while a servo may hold one."""
+    from .moves import held_goal
+
     def job(bus):
         if how == "sync":
             bus.sync_write("goal_position", values)
-            return
+        else:
+            left = st.unhold(bus, st.held - set(values)) if st.held - set(values) else []
+            if left:
+                raise Refused(
+                    "ID %s may still hold the goal of a group move that was cut short (a "
+                    "REG WRITE), and does not answer to have it replaced: this move's "
+                    "broadcast ACTION would start it too. Make it answer again (or power "
+                    "it off and on), or move with one SYNC WRITE. No goal was sent." %
+                    ", ".join(map(str, left)), 409, sent=True)
+            try:
+                for sid, v in sorted(values.items()):
+                    st.held.add(sid)  # held from now on, even if its answer is lost
+                    bus.reg_write(sid, v)  # goal and speed (30-33), held until ACTION
+            except ServoBusError as e:
+                if not isinstance(e, Interrupted) and not is_link_error(e):
+                    st.unhold(bus, set(values))  # STOP's job does it after a STOP
+                raise
+            bus.action(P.BROADCAST)  # every one of them starts at this packet
+            st.held.clear()  # a broadcast ACTION empties every servo's buffer
+        clamps = {}
         for sid, v in sorted(values.items()):
-            bus.reg_write(sid, v)  # goal and speed (30-33), held until the ACTION
-        bus.action(P.BROADCAST)  # every one of them starts at this packet
+            c = held_goal(bus, sid, v["goal_position"])
+            if c:
+                clamps[sid] = c
+        return clamps
     return job

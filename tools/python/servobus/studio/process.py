@@ -82,6 +82,7 @@ class Studio:
             self.proc.kill()
             rc = self.proc.wait()
         self.stderr = self.proc.stderr.read()
+        self.stdout = self.proc.stdout.read()  # what it printed after the address
         self.proc.stdout.close()
         self.proc.stderr.close()
         self.rc = rc

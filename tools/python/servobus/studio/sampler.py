@@ -61,5 +61,6 @@ def table(self, sid):
         values[r.name] = r.decode(int.from_bytes(data[r.address:r.address + r.size],
                                                  "little"))
     self.resolution = values.get("angle_resolution") or 10
+    self.resolutions[sid] = self.resolution
     self.push({"type": "table", "id": sid, "values": values,
                "resolution": self.resolution})

@@ -19,7 +19,7 @@ def sentence(text):
     """text as a sentence: a capital first, a full stop last."""
     text = " ".join(str(text).split())
     first = text.split(" ", 1)[0].rstrip(":,")
-    if first.isalpha() and first.islower():  # not a register's name: return_delay stays
+    if first.isalpha() and first.islower() and first not in REGISTERS:  # id stays id
         text = text[0].upper() + text[1:]
     return text if text.endswith((".", "!", "?")) else text + "."
 
@@ -35,6 +35,11 @@ def in_words(e, baud=None):
         return sentence("No answer from %s%s: no servo with that ID, the wrong baud rate, "
                         "or power and wiring (%s)" % (who, " at %d baud" % baud if baud
                                                       else "", text))
+    if isinstance(e, Interrupted) and e.written:  # settings half written: say which
+        return ("Stopped by STOP part way: %s written; %s not written (do it again to "
+                "finish; nothing more of it was sent)." % (
+                    ", ".join("%s = %s" % kv for kv in e.written.items()),
+                    ", ".join(e.unwritten) or "nothing else"))
     if isinstance(e, Interrupted):
         return "Stopped by STOP before it was done: nothing more of it was sent."
     if is_link_error(e):

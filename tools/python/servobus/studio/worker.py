@@ -17,7 +17,7 @@ import threading
 import time
 
 from .. import Bus, Interrupted, ServoBusError
-from ..registers import variant_by_model
+from ..registers import baud_of_code, variant_by_model
 from . import sampler
 from .console import Recorder
 from .live import Live
@@ -59,6 +59,8 @@ class Studio:
         self.commands = 0           # actions of the user that put something on the wire
         self.nsample = 0
         self.slow = {}              # homing and photo switches from the last full sample
+        self.gone_cause = ""        # why the bus is gone, in the bus's words (once)
+        self.held = set()           # IDs that may hold a REG WRITE the studio sent
         self.live = Live(self)      # the dashboard and the plot of any register (live.py)
         self.state = {
             "port": bus.port, "baud": bus.baud, "tcp": bus.is_tcp, "link": "connected",
@@ -123,7 +125,7 @@ class Studio:
         to run when it comes back."""
         if self.bus is None:
             raise BusGone("The bus is gone (%s): nothing was sent. Try again once the "
-                          "header says connected." % self.state["link"])
+                          "header says connected." % self.gone_cause)
 
     def submit(self, fn, what=None, motion=False, prio=1):
         """Queue fn(bus) for the worker; its Future (BusGone at once without a bus)."""
@@ -139,7 +141,7 @@ class Studio:
         broadcast's job (its result: the time it was sent)."""
         if self.bus is None:
             raise BusGone("The bus is gone (%s): STOP cannot reach the servos — switch "
-                          "their power off if one moves." % self.state["link"])
+                          "their power off if one moves." % self.gone_cause)
         self.stop_event.set()
         self.queue.cancel(lambda job: job.motion, Refused(
             "Cancelled by STOP before it was sent: nothing of it was sent.", 409))
@@ -154,7 +156,31 @@ class Studio:
         if sid is not None:  # the selected servo again, with an answer that confirms it
             self.queue.put(Job(lambda b: b.stop(sid), "ID %d: moving speed 0 (STOP, "
                                "confirmed by its answer)" % sid, prio=0))
+        if self.held:  # a group move STOP cut short: no goal left for a later ACTION
+            self.queue.put(Job(lambda b: self.unhold(b, set(self.held)), "IDs %s: held "
+                               "goal replaced (STOP)" % ", ".join(map(str, sorted(
+                                   self.held))), prio=0))
         return at
+
+    def unhold(self, bus, ids):
+        """Replace what servos ids may hold from a REG WRITE of the studio's (a group move
+        cut short between its REG WRITEs and its ACTION) by a REG WRITE that changes
+        nothing — register 49 as it is — so that a later broadcast ACTION does not start
+        an old move (a held write survives STOP: PROTOCOL.md §4.4). Worker thread. The
+        IDs that did not answer (they may still hold it)."""
+        left = []
+        for sid in sorted(ids):
+            try:
+                value = bus.read(sid, "move_without_reference")
+                bus.reg_write(sid, {"move_without_reference": value})
+                self.held.discard(sid)
+            except Interrupted:
+                raise
+            except ServoBusError as e:
+                if is_link_error(e):
+                    raise
+                left.append(sid)
+        return left
 
     def _run(self, job):
         """Run one job; its log entry (if it has words) once it is done, dated when it
@@ -204,33 +230,43 @@ class Studio:
                 next_sample = self._sample(self.selected, now, next_sample)
 
     def _sample(self, sid, now, next_sample):
-        """One live sample (and the table when due); the time of the next one."""
+        """One live sample (and the table when due), then the dashboard and the register
+        plot; the time of the next one. The selected servo not answering does not stop
+        the others being read (before, it froze the dashboard and the plot of all)."""
+        quiet = False
         try:
-            if sid is not None:
-                sampler.sample(self, sid)
-                self._stamps = [t for t in self._stamps if t > now - 1.0] + [now]
-                self.rate = len(self._stamps) / min(1.0, max(now - self.t0, 1e-3))
-                if now >= self.table_due:
-                    self.table_due = now + TABLE_PERIOD_S
-                    sampler.table(self, sid)
+            try:
+                if sid is not None:
+                    sampler.sample(self, sid)
+                    self._stamps = [t for t in self._stamps if t > now - 1.0] + [now]
+                    self.rate = len(self._stamps) / min(1.0, max(now - self.t0, 1e-3))
+                    if now >= self.table_due:
+                        self.table_due = now + TABLE_PERIOD_S
+                        sampler.table(self, sid)
+                self._sample_error(None)
+            except (ServoBusError, OSError) as e:
+                if isinstance(e, Interrupted) or is_link_error(e):
+                    raise
+                self._sample_error(in_words(e, self.bus.baud))
+                quiet = True
             self.live.poll(self.bus)
-            if self.sample_error:
-                self.sample_error = None
-                self.state["sample_error"] = ""
-                self.changed()
         except Interrupted:
             pass  # a STOP: its job is next
         except (ServoBusError, OSError) as e:  # OSError: a serial adapter unplugged
             if is_link_error(e):
                 self._lost(e)
                 return next_sample
-            words = in_words(e, self.bus.baud)
-            if words != self.sample_error:
-                self.sample_error = words
-                self.state["sample_error"] = words
-                self.changed()
-            return time.monotonic() + 0.5  # leave the bus to the user's actions
-        return next_sample
+            self._sample_error(in_words(e, self.bus.baud))
+            quiet = True
+        # a servo that does not answer: leave the bus to the user's actions for a while
+        return time.monotonic() + 0.5 if quiet else next_sample
+
+    def _sample_error(self, words):
+        """The live sample's refusal in words (None: it answers), pushed when it changes."""
+        if words != self.sample_error:
+            self.sample_error = words
+            self.state["sample_error"] = words or ""
+            self.changed()
 
     def wake(self):
         """Let the worker look at what to poll now (a job that does nothing)."""
@@ -246,18 +282,24 @@ class Studio:
             pass
         self.bus = None
         self.stop_event.clear()
-        self.state["link"] = "%s — reconnecting" % in_words(e)
+        self._gone(e)
         self.state["link_ok"] = False
         self.queue.cancel(lambda job: True, BusGone(
             "The bus went away before this was sent (%s): nothing of it was sent." % e))
         self.log("lost the bus: %s" % e, ok=False)
+
+    def _gone(self, e):
+        """Say why the bus is gone: the header's sentence, and the cause alone for the
+        refusals, which begin "The bus is gone" themselves (never twice)."""
+        self.gone_cause = " ".join(str(e).split()).rstrip(".")
+        self.state["link"] = "%s — reconnecting" % in_words(e).rstrip(".")
 
     def _reconnect(self):
         time.sleep(RECONNECT_S)
         try:
             bus = Bus(self.port, baud=self.state["baud"])
         except (ServoBusError, OSError) as e:
-            self.state["link"] = "%s — reconnecting" % in_words(e)
+            self._gone(e)
             self.changed()
             return
         self._own(bus)
@@ -266,6 +308,41 @@ class Studio:
         self.state["link_ok"] = True
         self.table_due = 0.0
         self.log("reconnected to %s" % self.port)
+
+    def set_resolution(self, sid, value):
+        """Servo sid's angle resolution (register 13) is value now: every degree the
+        studio converts for it uses it from the next action on (before, a group move
+        right after a change sent its goal at the old resolution: half the angle)."""
+        res = value or 10
+        self.resolutions[sid] = res
+        if sid == self.selected:
+            self.resolution = res
+
+    def renumbered(self, sid, new):
+        """Servo sid answers at ID new now (Set ID, a restore with the ID): the list and
+        the per-servo state follow it. Call from the event loop."""
+        for s in self.state["servos"]:
+            if s["id"] == sid:
+                s["id"] = new
+        self.state["servos"].sort(key=lambda s: s["id"])
+        if sid in self.resolutions:
+            self.resolutions[new] = self.resolutions.pop(sid)
+        if sid in self.held:  # what it holds went with it
+            self.held.discard(sid)
+            self.held.add(new)
+
+    def follow_baud(self, bus, sid, code, variant=None):
+        """Servo sid (of variant, default: as the Bus knows it) answers at baud code from
+        now on (worker thread): on a serial bus the host follows it, as after a write of
+        baud_rate."""
+        if bus.is_tcp:
+            return
+        baud = baud_of_code(code, variant or bus.variant(sid))
+        bus.set_baud(baud)
+        self.state["baud"] = baud
+        for s in self.state["servos"]:
+            if s["id"] == sid:
+                s["heard_baud"] = s["baud"] = baud
 
     def select(self, sid):
         """The job that makes sid the servo every panel shows."""

@@ -120,7 +120,7 @@ function renderScopePicker() {
 }
 
 async function applyTraces() {
-  const r = await post("/api/scope", { picks: X.traces.map((k) => ({ id: Number(k.split(".")[0]), register: k.split(".")[1] })) });
+  const r = await post("/api/scope", { tab: S.tab, picks: X.traces.map((k) => ({ id: Number(k.split(".")[0]), register: k.split(".")[1] })) });
   if (!r) return;
   X.scope = { t: [], v: {} };
   X.scopeInfo = null;
@@ -230,7 +230,10 @@ function onDash(m) {
     }
     const cell = (k, v) => { tr.querySelector(".d-" + k).textContent = v; };
     cell("id", r.id);
-    if (r.error) { cell("err", r.error); continue; }
+    if (r.error) {  // no answer this cycle: no value shown as if it were live
+      for (const k of ["position", "speed", "temperature", "moving", "mode"]) cell(k, "\u2013");
+      cell("err", r.error); tr.classList.add("bad"); continue;
+    }
     cell("variant", r.variant); cell("position", r.position + " deg"); cell("speed", r.speed + " deg/s");
     cell("temperature", r.temperature + " \u00b0C"); cell("err", r.err_words.join(", "));
     cell("moving", r.moving ? "moving" : "still"); cell("mode", r.mode);
@@ -242,7 +245,7 @@ $("dash-go").addEventListener("click", async () => {
   const goals = {};
   for (const b of document.querySelectorAll(".dash-pick:checked")) goals[b.value] = $("dash-goal-" + b.value).value;
   const r = await post("/api/group", { goals, speed: $("dash-speed").value, how: $("dash-how").value });
-  if (r) say("IDs " + r.ids.join(", ") + " started together.", "ok");
+  if (r) say("IDs " + r.ids.join(", ") + " started together." + (r.note ? " " + r.note : ""), r.note ? "" : "ok");
 });
 
 // ---- trajectory editor ------------------------------------------------------------------
@@ -276,7 +279,7 @@ function plan() {
   X.te.planTimer = setTimeout(async () => {
     if (!X.te.points.length || selected() === null) { X.te.plan = []; drawTe(); return; }
     const r = await post("/api/plan", { points: X.te.points });
-    if (r) { X.te.plan = r.profile; $("te-info").textContent = "planned: " + r.duration.toFixed(2) + " s"; }
+    if (r) { X.te.plan = r.profile; $("te-info").textContent = "planned: " + r.duration.toFixed(2) + " s" + (r.note ? ". " + r.note : ""); }
     drawTe();
   }, 150);
 }
@@ -320,7 +323,7 @@ $("te-run").addEventListener("click", async () => {
   X.te.measured = [];
   X.te.runAt = null;
   const r = await post("/api/traj", { points: X.te.points });
-  if (r) { X.te.runAt = "next"; say("Trajectory of " + X.te.points.length + " points sent and running.", "ok"); }
+  if (r) { X.te.runAt = "next"; say("Trajectory of " + X.te.points.length + " points sent and running." + (r.note ? " " + r.note : ""), r.note ? "" : "ok"); }
 });
 function onSampleTe(m) {
   if (X.te.runAt === null || m.id !== selected()) return;
@@ -395,10 +398,19 @@ window.expert = (m) => {
 };
 window.expertShow = (panel) => {
   const on = panel === "dash";
-  if (on !== X.dashOn) { X.dashOn = on; post("/api/dashboard", { on }); }
+  if (on !== X.dashOn) { X.dashOn = on; post("/api/dashboard", { on, tab: S.tab }); }
   if (panel === "console") X.conDirty = true;
   if (panel === "scope") { if (X.scopeChart) X.scopeChart.resize(); X.scopeDirty = true; }
   if (panel === "trajed") { if (X.te.chart) X.te.chart.resize(); plan(); }
+};
+// The WebSocket (re)opened: the server forgot this tab's traces and dashboard when the
+// old one closed, so they are asked for again (nothing to ask for on the first open).
+window.expertConnected = () => {
+  if (X.connectedOnce) {
+    if (X.traces.length) post("/api/scope", { tab: S.tab, picks: X.traces.map((k) => ({ id: Number(k.split(".")[0]), register: k.split(".")[1] })) });
+    if (X.dashOn) post("/api/dashboard", { on: true, tab: S.tab });
+  }
+  X.connectedOnce = true;
 };
 (async function startExpert() {
   const r = await fetch("/api/frames");

@@ -36,7 +36,14 @@ function say(text, kind) {
 // here without the studio's consent). The server checks every value (servobus/values.py)
 // and answers a sentence; a setting that would lock the servo out comes back with
 // "confirm", and is sent again only if the user says so.
+// Actions on one servo name it: the one selected when the user acted. The selection is
+// shared by every tab, so without its ID a confirmed write (or anything clicked while
+// another tab, or a scan, changed the selection) would go to another servo.
+const TARGETED = new Set(["/api/write", "/api/move", "/api/speed", "/api/home", "/api/traj",
+  "/api/setid", "/api/reset", "/api/plan", "/api/config/save", "/api/config/restore"]);
 async function post(path, body, raw) {
+  if (!raw && TARGETED.has(path) && body && !("id" in body) && selected() !== null)
+    body = Object.assign({ id: selected() }, body);
   let r;
   try {
     r = await fetch(path, raw ?
@@ -130,6 +137,16 @@ function onState(st) {
   link.className = "link" + (st.link_ok ? "" : " bad");
   if (!st.link_ok) say(st.link, "error");
   else if ($("message").textContent.includes("reconnecting")) say("Connected again to " + st.port + ".", "ok");
+  // The selected servo stopped answering its live READs (unplugged, status return level
+  // 0, ...): say so, and show no value as if it were live.
+  const serr = st.link_ok ? (st.sample_error || "") : "";
+  if (serr !== (S.sampleError || "")) {
+    S.sampleError = serr;
+    if (serr) {
+      staleReadouts();
+      say("Live values of ID " + st.selected + " stopped: " + serr, "error");
+    } else if ($("message").textContent.startsWith("Live values of")) say("Live values again.", "ok");
+  }
   // servo picker
   const pick = $("servo-pick");
   const want = st.servos.map((s) => s.id + ":" + s.variant).join(",");
@@ -302,7 +319,8 @@ $("stop").addEventListener("click", async () => {
 $("mv-go").addEventListener("click", async () => {
   const r = await post("/api/move", { goal: $("mv-goal").value, speed: $("mv-speed").value,
     acc: $("mv-acc").value, dec: $("mv-dec").value });
-  if (r) say("Moving ID " + selected() + " to " + $("mv-goal").value + " deg.", "ok");
+  // a goal outside the angle limits is clamped by the servo: the server says so
+  if (r) say(r.note || "Moving ID " + selected() + " to " + $("mv-goal").value + " deg.", r.note ? "" : "ok");
 });
 $("sp-go").addEventListener("click", async () => {
   if (await post("/api/speed", { speed: $("sp-speed").value }))
@@ -322,8 +340,8 @@ function renderTraj() {
 }
 $("traj-add").addEventListener("click", () => { S.traj.push([0, 60]); renderTraj(); });
 $("traj-run").addEventListener("click", async () => {
-  if (await post("/api/traj", { points: S.traj }))
-    say("Trajectory of " + S.traj.length + " points written and running.", "ok");
+  const r = await post("/api/traj", { points: S.traj });
+  if (r) say("Trajectory of " + S.traj.length + " points written and running." + (r.note ? " " + r.note : ""), r.note ? "" : "ok");
 });
 
 // ---- live samples and the plot ----------------------------------------------------
@@ -350,6 +368,13 @@ function onSample(m) {
     if (P.t.length > 1500) for (const k of Object.keys(P)) P[k].shift();
     S.plotDirty = true;
   }
+}
+
+function staleReadouts() {
+  for (const id of ["ro-pos", "ro-goal", "ro-speed", "moving", "ro-homing", "home-status"])
+    $(id).textContent = "\u2013";
+  $("safety-flags").replaceChildren(el("li", { class: "health-bad" }, "no live answer"));
+  if (S.sample) S.sample = Object.assign({}, S.sample, { rate: 0 });
 }
 
 function renderFlags(m) {
@@ -547,7 +572,8 @@ $("reset-go").addEventListener("click", async () => {
     "Every setting of this servo goes back to its factory value and its ID becomes 1." +
     (one ? " ID 1 is already used by the " + one.variant + ", so the studio will refuse: " +
       "give that servo another ID first." : ""), "Reset to factory values");
-  if (yes && await post("/api/reset", { yes: true })) say("Factory reset done; scanning again.", "ok");
+  // the ID asked about, even if the selection changed while the dialog was open
+  if (yes && await post("/api/reset", { yes: true, id: s.id })) say("Factory reset done; scanning again.", "ok");
 });
 $("confirm-no").addEventListener("click", () => answer(false));
 $("confirm-yes").addEventListener("click", () => answer(true));
@@ -555,8 +581,12 @@ $("log-clear").addEventListener("click", () => post("/api/clear", {}));
 
 // ---- start ------------------------------------------------------------------------
 
+// This tab's name: its register plot traces and its dashboard are its own (another tab
+// adding traces or leaving the dashboard does not change this one's).
+S.tab = Math.random().toString(36).slice(2, 12) + Date.now().toString(36);
 function connect() {
-  const ws = new WebSocket((location.protocol === "https:" ? "wss://" : "ws://") + location.host + "/ws");
+  const ws = new WebSocket((location.protocol === "https:" ? "wss://" : "ws://") + location.host +
+    "/ws?tab=" + encodeURIComponent(S.tab));
   ws.onmessage = (e) => {
     const m = JSON.parse(e.data);
     if (m.type === "state") onState(m.state);
@@ -575,7 +605,10 @@ function connect() {
     say(why, "error");
     setTimeout(connect, 1000);
   };
-  ws.onopen = () => { if ($("message").textContent.startsWith("The studio server")) say("", "ok"); };
+  ws.onopen = () => {
+    if ($("message").textContent.startsWith("The studio server")) say("", "ok");
+    if (window.expertConnected) window.expertConnected();  // a closed socket dropped them
+  };
 }
 
 (async function start() {
