@@ -81,7 +81,8 @@ uint8_t safety_tick(struct safety *sf, const struct regs *r, const struct board 
     return SAFETY_NONE;
 }
 
-uint8_t safety_err(const struct safety *sf)
+/* Not inlined: one copy for its callers, smaller under -flto (measured). */
+__attribute__((noinline)) uint8_t safety_err(const struct safety *sf)
 {
     return (uint8_t)(sf->present | sf->latched);
 }
