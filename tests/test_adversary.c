@@ -1,0 +1,56 @@
+/* test_adversary.c - an adversary's findings where features meet (after issue 25), one
+ * named test each, through the bus (tests/bus_host.h) with the plant as ground truth.
+ * Each failed before its fix. */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "bus_host.h"
+
+/* Duplicate IDs: two feet at ID 1 (a second one added out of the box), one with return
+ * delay 0. Each hears the other's answer as an instruction to its own ID; an error answer
+ * (ERR 0x20) reads as the unknown instruction 0x20, which the other answered with an
+ * error answer, and so on for ever: one PING filled the bus for good, and the storm fed
+ * both heartbeats, so two motors turning kept turning after the host had gone. */
+static void duplicate_ids_never_answer_each_other_for_ever(void **state)
+{
+    (void)state;
+    vbus_init(&bus);
+    bus.step_us = BUS_STEP_US;
+    bus.host_baud = 9600;
+    (void)vbus_add(&bus, &board_foot, 0);
+    bus_run_ms(5);
+    assert_int_equal(bus_w8(REG_RETURN_DELAY, 0), 0);
+    (void)vbus_add(&bus, &board_foot, 0); /* a new foot out of the box: ID 1 too */
+    bus_run_ms(5);
+    /* both turn in speed mode, by broadcast (no answers) */
+    const uint8_t lim[5] = {REG_CW_LIMIT, 0, 0, 0, 0};
+    const uint8_t spd[3] = {REG_MOVING_SPEED, 120, 0};
+    (void)bus_ins_to(PROTO_ID_BROADCAST, INS_WRITE, lim, sizeof lim);
+    (void)bus_ins_to(PROTO_ID_BROADCAST, INS_WRITE, spd, sizeof spd);
+    bus_run_ms(300);
+    assert_true(bus.node[0].hal.motor.omega > 1.0 && bus.node[1].hal.motor.omega > 1.0);
+    (void)bus_ins(INS_PING, NULL, 0); /* the answers collide or not: the host then goes */
+    bus_run_ms(100);
+    uint32_t w = bus.wire_len;
+    bus_run_ms(1900);
+    assert_int_equal(bus.wire_len - w, 0); /* the bus falls quiet */
+    for (uint8_t i = 0; i < 2; i++) { /* and the heartbeat stopped both (§7.1) */
+        motor_sim_advance(&bus.node[i].hal.motor, bus.now_us);
+        assert_true(fabs(bus.node[i].hal.motor.omega) < 0.01);
+    }
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(duplicate_ids_never_answer_each_other_for_ever),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
