@@ -52,8 +52,11 @@ uint8_t command_write_check(const struct servo *s, const struct reg_write *w)
     if (reg_write_touches(w, REG_MOVING_SPEED)) {
         bool stop = proto_speed_is_stop(proto_get16(&w->data[REG_MOVING_SPEED - w->addr]));
         /* Rule 3: a stop is never refused. In position mode the speed only sets the cruise
-         * speed: it starts nothing. */
-        if (!stop && regs_speed_mode(&s->regs) && (unloaded || !motion_referenced_for(s, true)))
+         * speed: it starts nothing. In speed mode it would start turning: not while homing
+         * runs (its motion is its own until it ends, as its limits are; taking it over left
+         * register 24 reading "running" for ever). */
+        if (!stop && regs_speed_mode(&s->regs) &&
+            (unloaded || motion_mode(s) == MOTION_HOME || !motion_referenced_for(s, true)))
             return ERR_INSTRUCTION;
     }
     return 0;

@@ -47,10 +47,34 @@ static void duplicate_ids_never_answer_each_other_for_ever(void **state)
     }
 }
 
+/* Homing in speed mode (an arm with both limits 0 and register 49 = 1): a speed written
+ * during homing was answered ERR 0 and turned the arm in speed mode, homing abandoned
+ * unannounced: register 24 read 0x11 ("running") for ever, after a speed 0 too, and a
+ * host waiting for homing waited for ever. Homing's motion is its own until it ends, as
+ * its limits are: the write is refused, and homing finishes. */
+static void a_speed_written_during_homing_never_hijacks_it(void **state)
+{
+    (void)state;
+    assert_true(bus_open(&board_arm));
+    const uint8_t lim[4] = {0, 0, 0, 0};
+    assert_int_equal(bus_write(REG_CW_LIMIT, lim, 4), 0); /* speed mode */
+    assert_int_equal(bus_w8(REG_MOVE_WITHOUT_REFERENCE, 1), 0);
+    assert_int_equal(bus_w8(REG_HOMING, 1), 0);
+    bus_run_ms(100);
+    assert_int_equal(bus_w16(REG_MOVING_SPEED, 30), ERR_INSTRUCTION);
+    assert_int_equal(bus_home_wait(30000), 2); /* done */
+    uint8_t t[REGS_SIZE];
+    assert_true(bus_read_table(t));
+    assert_int_equal(tab16(t, REG_CW_LIMIT), 0);
+    assert_true(tab16(t, REG_CCW_LIMIT) >= 400); /* the switch at 420 degrees */
+    assert_int_equal(bus_w16(REG_MOVING_SPEED, 0), 0); /* a stop is never refused */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(duplicate_ids_never_answer_each_other_for_ever),
+        cmocka_unit_test(a_speed_written_during_homing_never_hijacks_it),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
