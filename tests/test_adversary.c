@@ -70,11 +70,31 @@ static void a_speed_written_during_homing_never_hijacks_it(void **state)
     assert_int_equal(bus_w16(REG_MOVING_SPEED, 0), 0); /* a stop is never refused */
 }
 
+/* A trajectory point whose 16-bit speed is 0x8000 (bit 15, the direction, alone: a
+ * magnitude of 0, a stop by §5.4) was accepted, where §4.7 makes speed 0 in a point an
+ * instruction error; run, it crawled at the planner's least speed: moving 1 for ever,
+ * never reaching the point. */
+static void a_trajectory_point_of_speed_0x8000_is_speed_0(void **state)
+{
+    (void)state;
+    assert_true(bus_open(&board_foot));
+    const uint8_t path[] = {2, 100, 0, 120, 0, 200, 0, 0x00, 0x80};
+    assert_int_equal(bus_ins(INS_TRAJ_WRITE, path, sizeof path), ERR_INSTRUCTION);
+    const uint8_t one[] = {1, 100, 0, 0x00, 0x80};
+    assert_int_equal(bus_ins(INS_TRAJ_WRITE, one, sizeof one), ERR_INSTRUCTION);
+    assert_int_equal(bus_ins(INS_TRAJ_ACTION, NULL, 0), ERR_INSTRUCTION); /* nothing stored */
+    uint8_t t[REGS_SIZE];
+    bus_run_ms(500);
+    assert_true(bus_read_table(t));
+    assert_int_equal(t[REG_MOVING], 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(duplicate_ids_never_answer_each_other_for_ever),
         cmocka_unit_test(a_speed_written_during_homing_never_hijacks_it),
+        cmocka_unit_test(a_trajectory_point_of_speed_0x8000_is_speed_0),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
