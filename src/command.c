@@ -69,14 +69,19 @@ static void resolution_written(struct servo *s, uint8_t old_res)
     struct regs *r = &s->regs;
     uint8_t new_res = r->mem[REG_RESOLUTION];
     uint16_t was = regs_present_position(r); /* still in the old unit */
-    bool inside = !regs_speed_mode(r) && was >= regs_get(r, REG_CW_LIMIT) &&
-                  was <= regs_get(r, REG_CCW_LIMIT);
+    bool joint = !regs_speed_mode(r);
+    bool inside = joint && was >= regs_get(r, REG_CW_LIMIT) && was <= regs_get(r, REG_CCW_LIMIT);
     static const uint8_t rescaled[] = {REG_CW_LIMIT, REG_CCW_LIMIT, REG_GOAL_POSITION};
     for (size_t i = 0; i < sizeof rescaled; i++) {
         uint8_t a = rescaled[i];
         uint32_t v = ((uint32_t)regs_get(r, a) * old_res + new_res / 2u) / new_res;
         regs_set(r, a, (uint16_t)(v > regs_table[a].max ? regs_table[a].max : v));
     }
+    /* Rounding never makes a joint a wheel: both limits 0 is speed mode (§6.2), entered
+     * only by writing 0 to both; a CCW limit of a few degrees rounded to 0 at a coarse
+     * resolution keeps one unit. */
+    if (joint && regs_get(r, REG_CCW_LIMIT) == 0u)
+        regs_set(r, REG_CCW_LIMIT, 1);
     traj_clear(&s->traj);
     /* A shaft within its limits stays within them: a limit rounds to the nearest new
      * unit, and the position, which nothing moves, may round the other way (homing holds

@@ -89,12 +89,38 @@ static void a_trajectory_point_of_speed_0x8000_is_speed_0(void **state)
     assert_int_equal(t[REG_MOVING], 0);
 }
 
+/* Register 13 rescales the limits, rounded: CW 0 / CCW 3 (3 degrees) at resolution 10
+ * became 0 / 0 at 255 (25.5 degrees a unit), and the joint silently became a wheel: the
+ * next speed written turned it for good. Speed mode comes only from writing 0 to both
+ * limits (issue 25), so a joint keeps a CCW limit of at least 1. */
+static void a_resolution_change_never_makes_a_joint_a_wheel(void **state)
+{
+    (void)state;
+    assert_true(bus_open(&board_foot));
+    const uint8_t lim[4] = {0, 0, 3, 0};
+    assert_int_equal(bus_write(REG_CW_LIMIT, lim, 4), 0);
+    bus_run_ms(200);
+    assert_int_equal(bus_w8(REG_RESOLUTION, 255), 0);
+    uint8_t t[REGS_SIZE];
+    assert_true(bus_read_table(t));
+    assert_int_equal(tab16(t, REG_CW_LIMIT), 0);
+    assert_true(tab16(t, REG_CCW_LIMIT) >= 1u);
+    assert_int_equal(bus_w16(REG_MOVING_SPEED, 10), 0); /* 255 degrees/s */
+    bus_run_ms(1000);
+    assert_true(bus_read_table(t));
+    struct hal *h = bus_hal();
+    motor_sim_advance(&h->motor, bus.now_us);
+    assert_true(fabs(h->motor.theta * 57.29577951308232) < 30.0); /* within 0..25.5 */
+    assert_int_equal(t[REG_MOVING], 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(duplicate_ids_never_answer_each_other_for_ever),
         cmocka_unit_test(a_speed_written_during_homing_never_hijacks_it),
         cmocka_unit_test(a_trajectory_point_of_speed_0x8000_is_speed_0),
+        cmocka_unit_test(a_resolution_change_never_makes_a_joint_a_wheel),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
