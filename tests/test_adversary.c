@@ -114,6 +114,26 @@ static void a_resolution_change_never_makes_a_joint_a_wheel(void **state)
     assert_int_equal(t[REG_MOVING], 0);
 }
 
+/* The base's CUSTOM MOVE writes its ramps into 21/22 lazily: in flash once the servo is
+ * idle (issue 25, docs/persistence.md). A host WRITE of 21 with the value such a move had
+ * set changed nothing in RAM, so nothing was committed: answered ERR 0, yet a power cut
+ * while the base drove lost it (21 read the factory 36). An answered write of an EEPROM
+ * register is in flash before its answer, whatever RAM held. */
+static void an_answered_write_of_a_lazily_set_ramp_is_in_flash(void **state)
+{
+    (void)state;
+    assert_true(bus_open(&board_base));
+    const uint8_t cm[] = {0x01, 0x10, 0x27, 0x2C, 0x01, 20, 20}; /* 10,000 units at 300 */
+    assert_int_equal(bus_ins(INS_CUSTOM, cm, sizeof cm), 0);
+    bus_run_ms(50);
+    assert_int_equal(bus_w8(REG_BASE_ACCELERATION, 20), 0);
+    vbus_power_cycle(&bus, 0); /* the base still drives */
+    bus_run_ms(20);
+    uint8_t t[REGS_SIZE];
+    assert_true(bus_read_table(t));
+    assert_int_equal(t[REG_BASE_ACCELERATION], 20);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -121,6 +141,7 @@ int main(void)
         cmocka_unit_test(a_speed_written_during_homing_never_hijacks_it),
         cmocka_unit_test(a_trajectory_point_of_speed_0x8000_is_speed_0),
         cmocka_unit_test(a_resolution_change_never_makes_a_joint_a_wheel),
+        cmocka_unit_test(an_answered_write_of_a_lazily_set_ramp_is_in_flash),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
