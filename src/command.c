@@ -142,6 +142,11 @@ uint8_t command_start_end(struct servo *s, uint8_t what)
     if (motion_mode(s) == MOTION_HOME)
         return ERR_INSTRUCTION; /* homing sets the zero and the limits itself */
     if (what == 1u) {
+        /* A trajectory running ends, as at a TRAJECTORY WRITE: the points after the
+         * segment running would be taken from the new zero, a path neither the stored
+         * one nor that one moved. */
+        if (motion_mode(s) == MOTION_TRAJ)
+            motion_stop_soft(s);
         motion_zero_here(s); /* the present position becomes 0 */
         regs_set(r, REG_CW_LIMIT, 0);
     } else {

@@ -134,6 +134,53 @@ static void an_answered_write_of_a_lazily_set_ramp_is_in_flash(void **state)
     assert_int_equal(t[REG_BASE_ACCELERATION], 20);
 }
 
+/* Read every 20 ms (the heartbeat fed) until moving reads 0 for 200 ms; the table then and
+ * the highest position read on the way. */
+static void until_rest(uint32_t ms, uint8_t *t, int32_t *hi)
+{
+    uint32_t still = 0;
+    *hi = INT32_MIN;
+    for (uint32_t e = 0; e < ms; e += 20u) {
+        bus_run_ms(20);
+        assert_true(bus_read_table(t));
+        int32_t p = tab_position(&board_foot, t);
+        *hi = p > *hi ? p : *hi;
+        still = t[REG_MOVING] ? 0u : still + 20u;
+        if (still >= 200u)
+            return;
+    }
+    fail_msg("still moving after %u ms", ms);
+}
+
+/* START/END 1 while a trajectory runs moved the zero under it: the segment running kept
+ * its target where it was on the shaft, the points after it were taken in the new frame,
+ * so the foot ran a path that was neither the stored one nor that one shifted (A = 300,
+ * 50, 250 from 0, START at 150: it went on to 300, then 200 and 400 on the shaft). As a
+ * TRAJECTORY WRITE does (docs/decisions.md), it ends the run: the foot stops with its
+ * deceleration and holds. */
+static void start_end_during_a_trajectory_ends_it(void **state)
+{
+    (void)state;
+    uint8_t t[REGS_SIZE];
+    int32_t hi;
+    assert_true(bus_open(&board_foot));
+    const uint8_t a[] = {3, 44, 1, 120, 0, 50, 0, 120, 0, 250, 0, 120, 0};
+    assert_int_equal(bus_ins(INS_TRAJ_WRITE, a, sizeof a), 0);
+    assert_int_equal(bus_ins(INS_TRAJ_ACTION, NULL, 0), 0);
+    for (int i = 0; i < 400; i++) {
+        bus_run_ms(5);
+        assert_true(bus_read_table(t));
+        if (tab_position(&board_foot, t) >= 150)
+            break;
+    }
+    const uint8_t one = 1;
+    assert_int_equal(bus_ins(INS_START_END, &one, 1), 0);
+    until_rest(10000, t, &hi);
+    int32_t p = tab_position(&board_foot, t);
+    assert_true(p >= 0 && p < 60 && hi < 60); /* stopped within its braking distance */
+    assert_int_equal(tab16(t, REG_GOAL_POSITION), p);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -142,6 +189,7 @@ int main(void)
         cmocka_unit_test(a_trajectory_point_of_speed_0x8000_is_speed_0),
         cmocka_unit_test(a_resolution_change_never_makes_a_joint_a_wheel),
         cmocka_unit_test(an_answered_write_of_a_lazily_set_ramp_is_in_flash),
+        cmocka_unit_test(start_end_during_a_trajectory_ends_it),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
