@@ -52,8 +52,11 @@ uint8_t command_write_check(const struct servo *s, const struct reg_write *w)
     if (reg_write_touches(w, REG_MOVING_SPEED)) {
         bool stop = proto_speed_is_stop(proto_get16(&w->data[REG_MOVING_SPEED - w->addr]));
         /* Rule 3: a stop is never refused. In position mode the speed only sets the cruise
-         * speed: it starts nothing. */
-        if (!stop && regs_speed_mode(&s->regs) && (unloaded || !motion_referenced_for(s, true)))
+         * speed: it starts nothing. In speed mode it would start turning: not while homing
+         * runs (its motion is its own until it ends, as its limits are; taking it over left
+         * register 24 reading "running" for ever). */
+        if (!stop && regs_speed_mode(&s->regs) &&
+            (unloaded || motion_mode(s) == MOTION_HOME || !motion_referenced_for(s, true)))
             return ERR_INSTRUCTION;
     }
     return 0;
@@ -66,14 +69,19 @@ static void resolution_written(struct servo *s, uint8_t old_res)
     struct regs *r = &s->regs;
     uint8_t new_res = r->mem[REG_RESOLUTION];
     uint16_t was = regs_present_position(r); /* still in the old unit */
-    bool inside = !regs_speed_mode(r) && was >= regs_get(r, REG_CW_LIMIT) &&
-                  was <= regs_get(r, REG_CCW_LIMIT);
+    bool joint = !regs_speed_mode(r);
+    bool inside = joint && was >= regs_get(r, REG_CW_LIMIT) && was <= regs_get(r, REG_CCW_LIMIT);
     static const uint8_t rescaled[] = {REG_CW_LIMIT, REG_CCW_LIMIT, REG_GOAL_POSITION};
     for (size_t i = 0; i < sizeof rescaled; i++) {
         uint8_t a = rescaled[i];
         uint32_t v = ((uint32_t)regs_get(r, a) * old_res + new_res / 2u) / new_res;
         regs_set(r, a, (uint16_t)(v > regs_max(&regs_table[a]) ? regs_max(&regs_table[a]) : v));
     }
+    /* Rounding never makes a joint a wheel: both limits 0 is speed mode (§6.2), entered
+     * only by writing 0 to both; a CCW limit of a few degrees rounded to 0 at a coarse
+     * resolution keeps one unit. */
+    if (joint && regs_get(r, REG_CCW_LIMIT) == 0u)
+        regs_set(r, REG_CCW_LIMIT, 1);
     traj_clear(&s->traj);
     /* A shaft within its limits stays within them: a limit rounds to the nearest new
      * unit, and the position, which nothing moves, may round the other way (homing holds
@@ -134,6 +142,11 @@ uint8_t command_start_end(struct servo *s, uint8_t what)
     if (motion_mode(s) == MOTION_HOME)
         return ERR_INSTRUCTION; /* homing sets the zero and the limits itself */
     if (what == 1u) {
+        /* A trajectory running ends, as at a TRAJECTORY WRITE: the points after the
+         * segment running would be taken from the new zero, a path neither the stored
+         * one nor that one moved. */
+        if (motion_mode(s) == MOTION_TRAJ)
+            motion_stop_soft(s);
         motion_zero_here(s); /* the present position becomes 0 */
         regs_set(r, REG_CW_LIMIT, 0);
     } else {

@@ -21,7 +21,9 @@ uint8_t traj_write(struct traj *t, const struct regs *r, const uint8_t *p, uint8
     const uint8_t *q = &p[1];
     for (uint8_t i = 0; i < count; i++, q += size) {
         uint16_t speed = size == 4u ? proto_get16(&q[2]) : q[2];
-        if (speed == 0u)
+        /* Speed 0 is refused (§4.7), 0x8000 too: bit 15 is the direction, the magnitude
+         * 0 (§5.4); run, such a point crawled at the planner's least speed for ever. */
+        if (proto_speed_is_stop(speed))
             return ERR_INSTRUCTION;
     }
     q = &p[1];

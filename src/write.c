@@ -83,6 +83,13 @@ uint8_t write_registers(struct servo *s, uint8_t addr, const uint8_t *data, uint
     for (uint8_t i = 0; i < n;) {
         uint8_t a = (uint8_t)(addr + i);
         uint8_t size = regs_table[a].size;
+        /* An answered write of an EEPROM register is in flash before its answer, even
+         * when RAM already held the value: the base's CUSTOM MOVE sets 21/22 in RAM
+         * lazily, so such a write changed nothing and nothing was committed (lost at a
+         * power cut). The store compares with what it saved: a value already in flash
+         * costs nothing. */
+        if (regs_table[a].area == REG_AREA_EE)
+            r->ee_changed = 1;
         uint16_t v = regs_value(&data[i], size);
         if (a == REG_HOMING)
             v = (uint16_t)((r->mem[REG_HOMING] & 0xF0u) | v); /* the status nibble stays */

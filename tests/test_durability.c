@@ -620,6 +620,14 @@ static void run_frame(const struct frame_plan *f, int cut)
     hv->flash.cut_at = 0;
     tally.sent[f->ins]++;
     bool commits = instruction_commits(f->ins);
+    if (!changed && commits && f->for_us && model.lazy && !model.pending) {
+        /* An accepted write of an EEPROM register commits whatever differs from flash, a
+         * waiting lazy change included, though it changed no value (unit.adversary): in
+         * flash now, or deferred. A refused one does neither. */
+        uint16_t got[REGS_SIZE];
+        flash_values(got);
+        changed = !same(got, model.flash) || sv->store.pending;
+    }
     if (changed && !commits) { /* an instruction that does not spend the budget */
         tally.lazy_changes++;
         model.lazy = true;
