@@ -16,9 +16,9 @@
  *
  * Invariants, after every dispatched frame and every answer sent (abort on violation):
  *   1. the identity registers are unchanged; every register is in its range; CW <= CCW;
- *   2. no answer to a broadcast other than PING;
+ *   2. no answer to a broadcast other than PING and the identity sub-command (0x11);
  *   3. every answer is well-formed: D5 5D, the servo's own ID (the one in force when the
- *      frame arrived), LEN = the bytes that follow it, the 8-bit sum of ID to the last
+ *      frame arrived; 0xFF for the identity sub-command, include/ident.h), LEN = the bytes that follow it, the 8-bit sum of ID to the last
  *      parameter as its last byte; and only a frame for that ID or a broadcast gets one.
  *
  * An input whose byte 0 is F0 or more is instead a packet sequence with one damaged
@@ -47,6 +47,7 @@
 #include "../identity_check.h"
 #include "fuzz.h"
 #include "hal_host.h"
+#include "ident.h"
 #include "proto.h"
 #include "servo.h"
 
@@ -131,6 +132,9 @@ static bool poll_once(void)
     const struct frame *next = frame_rx_peek(&servo.rx);
     struct frame taken = next ? *next : (struct frame){0, 0, 0, NULL};
     uint32_t sends = hal.sends, log_from = hal.log_len;
+    /* An answer still waiting from an earlier frame (an ENUMERATE slot can be seconds
+     * away) is not this frame's: a new one replaces it (link_answer). */
+    struct link was = servo.link;
     servo.motion.tick_us = hal.now_us; /* no control tick is due */
     hal.motor.last_us = hal.now_us;    /* the plant does not move */
     servo_poll(&servo);
@@ -151,13 +155,21 @@ static bool poll_once(void)
                 memcpy(seq.got[seq.seen], buf, len);
             seq.got_answer[seq.seen++] = servo.link.state != LINK_IDLE;
         }
-        if (servo.link.state != LINK_IDLE) {
+        bool scheduled = servo.link.state != LINK_IDLE &&
+                         (was.state == LINK_IDLE || servo.link.due_us != was.due_us ||
+                          servo.link.tx_len != was.tx_len ||
+                          memcmp(servo.link.tx, was.tx, was.tx_len) != 0);
+        if (scheduled) {
             /* An answer is scheduled, so the settings in force are still those the frame
              * arrived under (new ones apply once the answer is out). */
             uint8_t my_id = servo.link.id;
-            FUZZ_CHECK(buf[0] == my_id || (buf[0] == PROTO_ID_BROADCAST && ping));
+            /* The identity sub-command (include/ident.h) answers at ID 0xFF, broadcast
+             * included: the one exception to invariants 2 and 3's ID. */
+            bool ident = status == FRAME_OK && buf[2] == INS_CUSTOM && buf[1] > 3u &&
+                         buf[3] == IDENT_SUB;
+            FUZZ_CHECK(buf[0] == my_id || (buf[0] == PROTO_ID_BROADCAST && (ping || ident)));
             answer.pending = true;
-            answer.id = my_id;
+            answer.id = ident ? PROTO_ID_INVALID : my_id;
         }
         check_table();
     }

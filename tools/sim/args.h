@@ -1,7 +1,12 @@
 /* args.h - servo-sim's command line:
  *
- *   servo-sim --listen HOST:PORT [--servo ID:VARIANT]... [--state-dir DIR]
+ *   servo-sim --listen HOST:PORT [--servo ID:VARIANT[:UID]]... [--state-dir DIR]
  *             [--report-commits]
+ *
+ * Several --servo may share an ID, as a bus of factory-fresh servos does (issue 27):
+ * they all answer, and their answers garble. UID: the node's unique identity (hal_uid(),
+ * include/ident.h), 24 hex digits, byte 0 first; without it the n-th --servo (from 0)
+ * gets args_default_uid(n). Two nodes with one UID are refused.
  *
  * A contract (README, tools/python/README.md, tests/test_sim.py): every error is one
  * line on stderr and exit status 2. */
@@ -13,12 +18,15 @@
 #include <stdint.h>
 
 #include "board.h"
+#include "hal.h"
 #include "sim.h"
 
 struct servo_arg {
     uint8_t id;
     const struct board *board;
     const char *text; /* as given, for messages */
+    bool uid_given;   /* a UID on the command line: it also names the state file */
+    uint8_t uid[HAL_UID_BYTES];
 };
 
 struct sim_args {
@@ -29,6 +37,11 @@ struct sim_args {
     unsigned nservos;      /* at least 1: one arm with ID 1 when none is given */
     struct servo_arg servo[SIM_SERVOS_MAX];
 };
+
+/* The UID of the n-th servo when none is given: bytes 0-3 a mix of n (where STM32 UIDs
+ * differ, their die's X/Y on the wafer), then a fixed "wafer" and "lot". Deterministic,
+ * so a test and a state directory see the same node again. */
+void args_default_uid(unsigned n, uint8_t uid[HAL_UID_BYTES]);
 
 /* Parse argv into a (--help prints the usage and exits 0; an error exits 2). */
 void args_parse(int argc, char **argv, struct sim_args *a);

@@ -3,6 +3,7 @@
 
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <time.h>
 
 #include "link.h"
@@ -188,7 +189,8 @@ static bool flash_blank(const struct hal *h)
     return true;
 }
 
-void bus_add(uint8_t arg_id, const struct board *b, const char *state_dir)
+void bus_add(uint8_t arg_id, const struct board *b, const uint8_t uid[HAL_UID_BYTES],
+             bool uid_names_file, const char *state_dir)
 {
     struct sim_servo *v = calloc(1, sizeof *v);
     if (!v)
@@ -196,8 +198,10 @@ void bus_add(uint8_t arg_id, const struct board *b, const char *state_dir)
     v->arg_id = arg_id;
     servos[servo_count++] = v;
     node_init(&v->node, b, HAL_HOST_CLOCK_START); /* configuration runs before the real clock */
+    memcpy(v->node.hal.uid, uid, HAL_UID_BYTES);
     if (state_dir) /* before power-up: the store reads the flash there */
-        state_open(&v->state, &v->node.hal, state_dir, arg_id, b->name);
+        state_open(&v->state, &v->node.hal, state_dir, arg_id, b->name,
+                   uid_names_file ? uid : NULL);
     else
         state_none(&v->state, &v->node.hal);
     bool blank = flash_blank(&v->node.hal);

@@ -73,8 +73,11 @@ struct sim_servo {
 
 /* Add a servo of board b: its state file first (with state_dir), then power-up; a new
  * servo (blank flash) gets arg_id the one way (node_set_id), in virtual time before the
- * real clock starts. Call before bus_start(). */
-void bus_add(uint8_t arg_id, const struct board *b, const char *state_dir);
+ * real clock starts. uid is its hal_uid(); with uid_names_file its state file's name
+ * carries the UID too (several servos of one ID and variant: state.h). Call before
+ * bus_start(). */
+void bus_add(uint8_t arg_id, const struct board *b, const uint8_t uid[HAL_UID_BYTES],
+             bool uid_names_file, const char *state_dir);
 
 /* --report-commits: from now on, each change of a servo's flash commit tokens (a commit
  * spent, a token back) is a line `servo-sim: ID N commit tokens T` on stderr, and each

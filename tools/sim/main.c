@@ -78,8 +78,13 @@ int main(int argc, char **argv)
     int lfd = client_listen(&args.listen, args.listen_text);
     sigset_t poll_mask;
     signals_setup(&poll_mask);
-    for (unsigned i = 0; i < args.nservos; i++)
-        bus_add(args.servo[i].id, args.servo[i].board, args.state_dir);
+    for (unsigned i = 0; i < args.nservos; i++) {
+        const struct servo_arg *v = &args.servo[i];
+        bool shared = v->uid_given; /* one ID and variant twice: the files need the UID */
+        for (unsigned k = 0; k < args.nservos; k++)
+            shared |= k != i && args.servo[k].id == v->id && args.servo[k].board == v->board;
+        bus_add(v->id, v->board, v->uid, shared, args.state_dir);
+    }
     bus_start();
     if (args.report_commits)
         bus_report_commits();

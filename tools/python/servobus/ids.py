@@ -1,0 +1,309 @@
+"""Every servo by its unique identity (issue 27): enumerate a bus whatever the IDs,
+duplicates and factory-fresh servos included, identify one, and give one servo an ID by
+its UID while others share its old one. The wire format (CUSTOM sub-command 0x11) is in
+docs/decisions.md, "Identity"; the firmware side in include/ident.h.
+
+The search: ENUMERATE(k, b, prefix) makes every servo whose UID starts with the k-bit
+prefix answer in slot s = its next b UID bits. A slot with one answer gives that servo
+(the UID's complement checks it). Two or more answers in one slot either superimpose bit
+for bit (the line is the AND of the talkers at low bauds, where their few microseconds of
+offset are a fraction of a bit): then the answer shows where their UIDs first differ, and
+the next round asks from that bit on, so each such round splits a group of servos in two
+or more - at most N - 1 of them for N servos; or they garble into bytes nobody can
+place (high bauds): then every slot that gave no clean answer is asked again, b bits
+deeper. Rounds are bounded: at most 1 + (N - 1) * 2^b * ceil(96 / b) (every garbled
+round), at most N when every collision superimposes. Measured figures: make bench."""
+
+import collections
+import time
+
+from . import protocol as P
+from . import values as V
+from .errors import BusTimeout, DuplicateId, IdTaken, ProtocolError, RangeError, \
+    ServoBusError
+from .link import check_id
+from .registers import BAUD_RATES, baud_of_code, variant_by_model
+
+SUB = 0x11
+ENUMERATE = 0x01
+IDENTIFY = 0x02
+SET_ID = 0x03
+UID_BYTES = 12
+UID_BITS = 96
+ANSWER_ID = 0xFF
+ANSWER_DATA = 6 + 2 * UID_BYTES
+ANSWER_BYTES = 6 + ANSWER_DATA  # 36
+TURNAROUND_S = 500e-6
+GUARD_S = 100e-6
+SLOT_BITS = 4
+VARIANT_NAMES = ("base", "foot", "arm", "wrist", "finger")
+HEADER = bytes([P.HEADER[0], P.HEADER[1], ANSWER_ID, ANSWER_DATA + 2])
+
+Identity = collections.namedtuple("Identity", "uid id variant model baud err")
+Identity.__doc__ = """One servo: uid (12 bytes), id, variant (name), model number,
+baud (bit/s, from register 4), err (its ERR byte)."""
+
+
+def uid_text(uid):
+    """A UID as the CLI prints it: 24 hex digits, byte 0 first."""
+    return bytes(uid).hex()
+
+
+def parse_uid(text):
+    """24 hex digits (spaces and colons allowed) -> 12 bytes; RangeError otherwise."""
+    if isinstance(text, (bytes, bytearray)):
+        uid = bytes(text)
+    else:
+        try:
+            uid = bytes.fromhex(str(text).replace(":", "").replace(" ", ""))
+        except ValueError:
+            uid = b""
+    if len(uid) != UID_BYTES:
+        raise RangeError("UID %r: give 24 hex digits (12 bytes)" % (text,))
+    return uid
+
+
+def slot_time(baud):
+    """Seconds of one ENUMERATE answer slot: the answer, 4 byte-times and the guard
+    (as the firmware's ident_slot_us)."""
+    return (ANSWER_BYTES + 4) * P.byte_time(baud) + GUARD_S
+
+
+def _bit(value, i):
+    return (value >> i) & 1
+
+
+def _uid_int(uid):
+    return int.from_bytes(uid, "little")  # bit i: byte i // 8, bit i % 8
+
+
+def _decode(raw):
+    """An answer's 36 bytes -> ("one", Identity) for a single talker, ("and", U, C) for
+    answers superimposed bit for bit (U the AND of the UIDs, C of their complements),
+    or None for garbage."""
+    if len(raw) != ANSWER_BYTES or raw[:4] != HEADER:
+        return None
+    uid, comp = raw[6:18], raw[23:35]
+    u, c = _uid_int(uid), _uid_int(comp)
+    full = (1 << UID_BITS) - 1
+    ok = sum(raw[2:-1]) & 0xFF == raw[-1]
+    if ok and u ^ c == full:
+        model = raw[20] | raw[21] << 8
+        name = VARIANT_NAMES[raw[19]] if raw[19] < len(VARIANT_NAMES) else "?"
+        baud = baud_of_code(raw[22], variant_by_model(model)) \
+            if raw[22] <= len(BAUD_RATES) else None
+        return ("one", Identity(bytes(uid), raw[18], name, model, baud, raw[4]))
+    if u & c == 0 and u | c != full:
+        return ("and", u, c)
+    return None
+
+
+class Ids:
+    """Enumerate, identify, set an ID by UID (a mixin of Bus: it uses Link)."""
+
+    def _ident(self, to, op, params, window, baud=None):
+        """Send CUSTOM 0x11 op to `to` and collect every 36-byte answer window (seconds
+        after the request has left) holds: (decoded answers, garbage seen)."""
+        frame = P.instruction(to, P.CUSTOM, bytes([SUB, op]) + bytes(params))
+        self._drain()
+        self.check_stop()
+        self._put(frame)
+        sent = time.monotonic()
+        deadline = sent + len(frame) * P.byte_time(self.baud) + window + self.slack()
+        self._quiet_at = max(self._quiet_at, deadline)
+        buf = bytearray()
+        while time.monotonic() < deadline:
+            buf += self._read(deadline)
+        if buf.startswith(frame):  # an adapter's echo of the request
+            del buf[:len(frame)]
+        found, garbage = [], False
+        while buf:
+            i = buf.find(HEADER)
+            if i < 0:
+                garbage = garbage or any(buf)
+                break
+            if i:
+                garbage = True
+            del buf[:i]
+            got = _decode(bytes(buf[:ANSWER_BYTES]))
+            if got is None:
+                garbage = True
+                del buf[:2]
+                continue
+            found.append(got)
+            del buf[:ANSWER_BYTES]
+        return found, garbage
+
+    def enumerate_round(self, k, prefix, bits):
+        """One ENUMERATE: servos whose UID starts with the k-bit prefix (an int, bit i of
+        the UID its bit i) answer in 2^bits slots. Returns (identities, collisions,
+        garbled): collisions a list of (k', prefix') to ask next, from the superimposed
+        answers; garbled True if bytes came that no slot can be told from."""
+        V.strict_integer(k, "prefix bits", 0, UID_BITS - 1)
+        V.strict_integer(bits, "slot bits", 1, 8)
+        if k + bits > UID_BITS:
+            raise RangeError("prefix %d + slot bits %d > 96" % (k, bits))
+        pbytes = (prefix & ((1 << k) - 1)).to_bytes(UID_BYTES, "little")[:(k + 7) // 8]
+        window = TURNAROUND_S + (1 << bits) * slot_time(self.baud)
+        found, garbage = self._ident(P.BROADCAST, ENUMERATE, bytes([k, bits]) + pbytes, window)
+        ids, splits = [], []
+        mask = (1 << k) - 1
+        for got in found:
+            if got[0] == "one":
+                ids.append(got[1])
+                continue
+            _, u, c = got
+            if u & mask != prefix & mask or (~c) & mask != prefix & mask:
+                garbage = True  # not under this prefix: not a superposition of answers
+                continue
+            split = next(i for i in range(UID_BITS) if not _bit(u, i) and not _bit(c, i))
+            if split < k:
+                garbage = True
+                continue
+            splits.append((split, u & ((1 << split) - 1)))
+        return ids, splits, garbage
+
+    def enumerate(self, slot_bits=SLOT_BITS, max_rounds=2000):
+        """Every servo on the bus at this baud, whatever its ID: a list of Identity sorted
+        by (id, uid). self.enumerate_rounds says how many ENUMERATE rounds it took."""
+        V.strict_integer(slot_bits, "slot bits", 1, 8)
+        found = {}
+        todo = collections.deque([(0, 0)])
+        asked = set()
+        rounds = 0
+        while todo:
+            k, prefix = todo.popleft()
+            if (k, prefix) in asked:
+                continue
+            asked.add((k, prefix))
+            if rounds >= max_rounds:
+                raise ServoBusError("enumerate: still collisions after %d rounds" % rounds)
+            bits = min(slot_bits, UID_BITS - k)
+            ids, splits, garbled = self.enumerate_round(k, prefix, bits)
+            rounds += 1
+            clean = set()
+            for ident in ids:
+                found[ident.uid] = ident
+                clean.add((_uid_int(ident.uid) >> k) & ((1 << bits) - 1))
+            for split in splits:
+                todo.append(split)
+                clean.add((split[1] >> k) & ((1 << bits) - 1) if split[0] > k else -1)
+            if garbled and k + bits <= UID_BITS:
+                for s in range(1 << bits):
+                    if s not in clean and k + bits < UID_BITS:
+                        todo.append((k + bits, prefix | s << k))
+        self.enumerate_rounds = rounds
+        return sorted(found.values(), key=lambda i: (i.id, i.uid))
+
+    def identify(self, uid=None, servo_id=None):
+        """The Identity of the servo with uid (at any ID), or of the one at servo_id.
+        BusTimeout if none answers."""
+        if uid is not None:
+            uid = parse_uid(uid)
+            to = P.BROADCAST if servo_id is None else check_id(servo_id) or servo_id
+            found, garbage = self._ident(to, IDENTIFY, uid, TURNAROUND_S + slot_time(self.baud))
+        else:
+            check_id(servo_id)
+            found, garbage = self._ident(servo_id, IDENTIFY, b"",
+                                         TURNAROUND_S + slot_time(self.baud))
+        ones = [g[1] for g in found if g[0] == "one"]
+        if uid is not None:
+            ones = [i for i in ones if i.uid == uid]
+        if len(ones) == 1 and not garbage:
+            return ones[0]
+        if ones or garbage or found:
+            raise DuplicateId("more than one servo answers at ID %s: identify them by UID "
+                              "(`servoctl ids`)" % servo_id)
+        who = "UID %s" % uid_text(uid) if uid is not None else "ID %d" % servo_id
+        raise BusTimeout("%s does not answer IDENTIFY %s" % (who, self._where()), servo_id)
+
+    def set_id_by_uid(self, uid, new_id, check_free=True):
+        """Give the servo with uid (at any ID, others may share it) the ID new_id, kept in
+        flash as any ID write; then confirm it by IDENTIFY. IdTaken if another servo
+        already answers at new_id (check_free)."""
+        uid = parse_uid(uid)
+        if isinstance(new_id, bool) or not isinstance(new_id, int) or \
+                not 0 <= new_id <= P.ID_MAX:
+            raise RangeError("ID %r is out of range 0..253" % (new_id,))
+        before = self.identify(uid)
+        if before.id == new_id:
+            return before
+        if check_free:
+            self.refuse_taken(new_id)
+        self._ident(P.BROADCAST, SET_ID, uid + bytes([new_id]), 0.0)
+        self._variants.pop(before.id, None)
+        self._variants.pop(new_id, None)
+        for _ in range(3):  # an ID write waits for the flash commit: give it time
+            self.pause(0.05)
+            try:
+                after = self.identify(uid)
+            except BusTimeout:
+                continue
+            if after.id == new_id:
+                return after
+        raise ProtocolError("UID %s did not take ID %d" % (uid_text(uid), new_id))
+
+    def fix_duplicates(self, idents=None, free=None):
+        """Give every servo that shares an ID with another a free ID. The one with the
+        lowest UID (as a 96-bit number, byte 11 most significant) keeps the old ID; the
+        others take the lowest free IDs in turn (from 1 up; `free` may give the list).
+        Returns [(uid, old id, new id)]."""
+        idents = self.enumerate() if idents is None else list(idents)
+        by_id = collections.defaultdict(list)
+        for i in idents:
+            by_id[i.id].append(i)
+        taken = set(by_id)
+        pool = [n for n in (free if free is not None else range(1, P.ID_MAX + 1))
+                if n not in taken]
+        moves = []
+        for sid in sorted(by_id):
+            group = sorted(by_id[sid], key=lambda i: _uid_int(i.uid))
+            for ident in group[1:]:
+                if not pool:
+                    raise IdTaken("no free ID left for UID %s" % uid_text(ident.uid))
+                new = pool.pop(0)
+                self.set_id_by_uid(ident.uid, new, check_free=False)
+                moves.append((ident.uid, sid, new))
+        return moves
+
+    def adopt(self, expect, idents=None):
+        """A replacement servo: of the expected IDs exactly one is silent, and exactly one
+        servo answers at an ID outside them (a factory-fresh one: ID 1 unless 1 is
+        expected): give it the missing ID, then this bus's baud (register 4) if it talks
+        at another. Refuses (ServoBusError, nothing written) when that is ambiguous: no
+        or several silent IDs, no or several newcomers, or two servos on an expected ID
+        (which of them is the old one, no answer can tell). Returns (uid, new id)."""
+        if not expect:
+            raise RangeError("adopt: give the expected IDs")
+        expect = sorted(set(expect))
+        for e in expect:
+            check_id(e)
+        idents = self.enumerate() if idents is None else list(idents)
+        present = collections.Counter(i.id for i in idents)
+        shared = sorted(e for e in expect if present[e] > 1)
+        if shared:
+            raise ServoBusError(
+                "adopt is ambiguous: two servos answer at expected ID %s, and nothing tells "
+                "the old one from the new: separate them first (`servoctl ids --fix`) or "
+                "give the new one its ID by UID" % ", ".join(map(str, shared)))
+        missing = [e for e in expect if present[e] == 0]
+        if len(missing) != 1:
+            raise ServoBusError("adopt needs exactly one silent expected ID; %s" % (
+                "none is silent" if not missing else
+                "silent: %s" % ", ".join(map(str, missing))))
+        new = [i for i in idents if i.id not in expect]
+        if len(new) != 1:
+            raise ServoBusError("adopt needs exactly one servo outside the expected IDs; "
+                                "%s" % ("there is none" if not new else "there are %d (%s)" % (
+                                    len(new), ", ".join("ID %d UID %s" % (i.id, uid_text(i.uid))
+                                                        for i in new))))
+        got = self.set_id_by_uid(new[0].uid, missing[0], check_free=False)
+        if got.baud != self.baud:
+            # Its answer would come at its old baud, which a serial host does not hear:
+            # sent without waiting, then proved by IDENTIFY at the new one.
+            self.send(missing[0], P.WRITE, bytes([4, BAUD_RATES.index(self.baud) + 1]))
+            self._late_until(b"", 8)
+            self.pause(0.05)
+            if self.identify(new[0].uid).baud != self.baud:
+                raise ProtocolError("ID %d did not take %d baud" % (missing[0], self.baud))
+        return new[0].uid, missing[0]
