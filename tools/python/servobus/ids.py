@@ -245,7 +245,8 @@ class Ids:
 
     def fix_duplicates(self, idents=None, free=None):
         """Give every servo that shares an ID with another a free ID. The one with the
-        lowest UID (as a 96-bit number, byte 11 most significant) keeps the old ID; the
+        lowest UID (as printed: 24 hex digits, byte 0 first, compared as text) keeps the
+        old ID; the
         others take the lowest free IDs in turn (from 1 up; `free` may give the list).
         Returns [(uid, old id, new id)]."""
         idents = self.enumerate() if idents is None else list(idents)
@@ -257,7 +258,7 @@ class Ids:
                 if n not in taken]
         moves = []
         for sid in sorted(by_id):
-            group = sorted(by_id[sid], key=lambda i: _uid_int(i.uid))
+            group = sorted(by_id[sid], key=lambda i: i.uid)
             for ident in group[1:]:
                 if not pool:
                     raise IdTaken("no free ID left for UID %s" % uid_text(ident.uid))
@@ -266,13 +267,16 @@ class Ids:
                 moves.append((ident.uid, sid, new))
         return moves
 
-    def adopt(self, expect, idents=None):
+    def adopt(self, expect, idents=None, known=None):
         """A replacement servo: of the expected IDs exactly one is silent, and exactly one
-        servo answers at an ID outside them (a factory-fresh one: ID 1 unless 1 is
-        expected): give it the missing ID, then this bus's baud (register 4) if it talks
-        at another. Refuses (ServoBusError, nothing written) when that is ambiguous: no
-        or several silent IDs, no or several newcomers, or two servos on an expected ID
-        (which of them is the old one, no answer can tell). Returns (uid, new id)."""
+        servo is new: it answers at an ID outside them, or shares an expected ID (a
+        factory-fresh servo at ID 1 beside the old ID 1) while `known` (a dict UID ->
+        ID, from an earlier `servoctl ids`) names the other one as the old servo there.
+        Give it the missing ID, then this bus's baud (register 4) if it talks at another.
+        Refuses (ServoBusError, nothing written) when that is ambiguous: no or several
+        silent IDs, no or several newcomers, or two servos on an expected ID that
+        `known` cannot tell apart. Returns (uid, new id)."""
+        known = dict(known or {})
         if not expect:
             raise RangeError("adopt: give the expected IDs")
         expect = sorted(set(expect))
@@ -280,7 +284,14 @@ class Ids:
             check_id(e)
         idents = self.enumerate() if idents is None else list(idents)
         present = collections.Counter(i.id for i in idents)
-        shared = sorted(e for e in expect if present[e] > 1)
+        newcomers = [i for i in idents if i.id not in expect]
+        shared = []
+        for e in sorted(x for x in expect if present[x] > 1):
+            unknown = [i for i in idents if i.id == e and known.get(i.uid) != e]
+            if len(unknown) == present[e] - 1:
+                newcomers += unknown
+            else:
+                shared.append(e)
         if shared:
             raise ServoBusError(
                 "adopt is ambiguous: two servos answer at expected ID %s, and nothing tells "
@@ -291,7 +302,7 @@ class Ids:
             raise ServoBusError("adopt needs exactly one silent expected ID; %s" % (
                 "none is silent" if not missing else
                 "silent: %s" % ", ".join(map(str, missing))))
-        new = [i for i in idents if i.id not in expect]
+        new = newcomers
         if len(new) != 1:
             raise ServoBusError("adopt needs exactly one servo outside the expected IDs; "
                                 "%s" % ("there is none" if not new else "there are %d (%s)" % (
