@@ -4,10 +4,10 @@
  *
  *   D5 5D id LEN FF 11 op params CHK     LEN = 4 + params (INS, sub, op and CHK)
  *
- *   op 0x01 ENUMERATE   k b prefix       broadcast only. A servo whose UID's first k bits
- *                                        (bit i: byte i/8, bit i%8, LSB first) equal the
- *                                        prefix (ceil(k/8) bytes) answers in slot s, the
- *                                        b UID bits after them (1 <= b <= 8, k + b <= 96).
+ *   op 0x01 ENUMERATE   k prefix         broadcast only. A servo whose UID's first k
+ *                                        nibbles (nibble i: byte i/2, low nibble first)
+ *                                        equal the prefix (ceil(k/2) bytes, 0 <= k <= 23)
+ *                                        answers in slot s, its nibble k (16 slots).
  *   op 0x02 IDENTIFY                     addressed to its ID: it answers.
  *   op 0x02 IDENTIFY    uid[12]          at its ID or broadcast: the servo with uid answers.
  *   op 0x03 SET ID      uid[12] id       at its ID or broadcast: the servo with uid takes

@@ -15,13 +15,6 @@ uint32_t ident_slot_us(uint32_t baud)
     return link_bytes_us(baud, IDENT_ANSWER_BYTES + 4u) + IDENT_GUARD_US;
 }
 
-/* Bit i of a UID, bits counted LSB first from byte 0: on the STM32F1 the first bytes are
- * the die's X/Y position on its wafer, where servos of one batch differ first. */
-static uint32_t uid_bit(const uint8_t *u, uint32_t i)
-{
-    return ((uint32_t)u[i >> 3] >> (i & 7u)) & 1u;
-}
-
 static void ident_answer(struct servo *s, uint8_t op, uint32_t at)
 {
     const uint8_t *u = hal_uid(s->hal);
@@ -48,26 +41,20 @@ void ident_frame(struct servo *s, const uint8_t *p, uint8_t n, bool broadcast, u
     uint32_t at = end_us + IDENT_TURNAROUND_US;
     uint8_t op = p[0];
     if (op == IDENT_ENUMERATE) {
-        uint32_t k = n >= 3u ? p[1] : 0xFFu, b = n >= 3u ? p[2] : 0u;
-        if (!broadcast || b == 0u || b > 8u || k + b > 96u || n != 3u + (k + 7u) / 8u)
-            return;
-        uint32_t slot = 0;
-        for (uint32_t i = 0; i < k + b; i++) {
-            uint32_t bit = uid_bit(u, i);
-            if (i < k && bit != uid_bit(&p[3], i))
-                return; /* not under this prefix */
-            if (i >= k)
-                slot |= bit << (i - k);
-        }
+        /* UID nibble i: byte i / 2, low nibble first. On the STM32F1 the first bytes are
+         * the die's X/Y position on its wafer, where servos of one batch differ first. */
+        uint32_t k = p[n > 1u], at_byte = k >> 1; /* n == 1: k = op, refused below */
+        if (!broadcast || k >= 2u * IDENT_UID_BYTES || n != 2u + (k + 1u) / 2u ||
+            memcmp(u, &p[2], at_byte) != 0 || ((k & 1u) && ((u[at_byte] ^ p[2u + at_byte]) & 0x0Fu)))
+            return; /* not under this prefix */
+        uint32_t slot = (k & 1u) ? u[at_byte] >> 4 : u[at_byte] & 0x0Fu;
         ident_answer(s, op, at + slot * ident_slot_us(link_baud_in_force(&s->link)));
     } else if (op == IDENT_IDENTIFY && n == 1u) {
         if (!broadcast)
             ident_answer(s, op, at);
-    } else if (n > IDENT_UID_BYTES && memcmp(&p[1], u, IDENT_UID_BYTES) == 0) {
-        if (op == IDENT_IDENTIFY && n == 13u)
-            ident_answer(s, op, at);
-        else if (op == IDENT_SET_ID && n == 14u && !write_registers(s, REG_ID, &p[13], 1) &&
-                 !broadcast)
+    } else if (n == 13u + (op == IDENT_SET_ID) && memcmp(&p[1], u, IDENT_UID_BYTES) == 0) {
+        if (op == IDENT_IDENTIFY ||
+            (op == IDENT_SET_ID && !write_registers(s, REG_ID, &p[13], 1) && !broadcast))
             ident_answer(s, op, at);
     }
 }

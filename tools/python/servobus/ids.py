@@ -3,16 +3,17 @@ duplicates and factory-fresh servos included, identify one, and give one servo a
 its UID while others share its old one. The wire format (CUSTOM sub-command 0x11) is in
 docs/decisions.md, "Identity"; the firmware side in include/ident.h.
 
-The search: ENUMERATE(k, b, prefix) makes every servo whose UID starts with the k-bit
-prefix answer in slot s = its next b UID bits. A slot with one answer gives that servo
-(the UID's complement checks it). Two or more answers in one slot either superimpose bit
-for bit (the line is the AND of the talkers at low bauds, where their few microseconds of
-offset are a fraction of a bit): then the answer shows where their UIDs first differ, and
-the next round asks from that bit on, so each such round splits a group of servos in two
-or more - at most N - 1 of them for N servos; or they garble into bytes nobody can
-place (high bauds): then every slot that gave no clean answer is asked again, b bits
-deeper. Rounds are bounded: at most 1 + (N - 1) * 2^b * ceil(96 / b) (every garbled
-round), at most N when every collision superimposes. Measured figures: make bench."""
+The search: ENUMERATE(k, prefix) makes every servo whose UID starts with the k-nibble
+prefix (nibble i: byte i // 2, low nibble first) answer in slot s = its nibble k, one of
+16. A slot with one answer gives that servo (the UID's complement checks it). Two or
+more answers in one slot either superimpose bit for bit (the line is the AND of the
+talkers at low bauds, where their few microseconds of offset are a fraction of a bit):
+then the answer shows the first bit where their UIDs differ, and the next round asks
+from that bit's nibble on, so each such round splits a group of servos in two or more -
+at most N - 1 of them for N servos, N rounds in all; or they garble into bytes nobody
+can place (high bauds): then every slot that gave no clean answer is asked again, one
+nibble deeper, so at most 1 + 16 * 23 * (N - 1) rounds, in practice a few per servo
+that collided. Measured figures: make bench."""
 
 import collections
 import time
@@ -35,7 +36,8 @@ ANSWER_DATA = 6 + 2 * UID_BYTES
 ANSWER_BYTES = 6 + ANSWER_DATA  # 36
 TURNAROUND_S = 500e-6
 GUARD_S = 100e-6
-SLOT_BITS = 4
+SLOTS = 16
+NIBBLES = 2 * UID_BYTES
 VARIANT_NAMES = ("base", "foot", "arm", "wrist", "finger")
 HEADER = bytes([P.HEADER[0], P.HEADER[1], ANSWER_ID, ANSWER_DATA + 2])
 
@@ -134,20 +136,18 @@ class Ids:
             del buf[:ANSWER_BYTES]
         return found, garbage
 
-    def enumerate_round(self, k, prefix, bits):
-        """One ENUMERATE: servos whose UID starts with the k-bit prefix (an int, bit i of
-        the UID its bit i) answer in 2^bits slots. Returns (identities, collisions,
-        garbled): collisions a list of (k', prefix') to ask next, from the superimposed
-        answers; garbled True if bytes came that no slot can be told from."""
-        V.strict_integer(k, "prefix bits", 0, UID_BITS - 1)
-        V.strict_integer(bits, "slot bits", 1, 8)
-        if k + bits > UID_BITS:
-            raise RangeError("prefix %d + slot bits %d > 96" % (k, bits))
-        pbytes = (prefix & ((1 << k) - 1)).to_bytes(UID_BYTES, "little")[:(k + 7) // 8]
-        window = TURNAROUND_S + (1 << bits) * slot_time(self.baud)
-        found, garbage = self._ident(P.BROADCAST, ENUMERATE, bytes([k, bits]) + pbytes, window)
+    def enumerate_round(self, k, prefix):
+        """One ENUMERATE: servos whose UID starts with the k-nibble prefix (an int, bit i
+        of the UID its bit i) answer in 16 slots. Returns (identities, splits, garbled):
+        splits a list of (k', prefix') to ask next, read from superimposed answers;
+        garbled True if bytes came that no slot can be told from."""
+        V.strict_integer(k, "prefix nibbles", 0, NIBBLES - 1)
+        bits = 4 * k
+        pbytes = (prefix & ((1 << bits) - 1)).to_bytes(UID_BYTES, "little")[:(k + 1) // 2]
+        window = TURNAROUND_S + SLOTS * slot_time(self.baud)
+        found, garbage = self._ident(P.BROADCAST, ENUMERATE, bytes([k]) + pbytes, window)
         ids, splits = [], []
-        mask = (1 << k) - 1
+        mask = (1 << bits) - 1
         for got in found:
             if got[0] == "one":
                 ids.append(got[1])
@@ -157,16 +157,16 @@ class Ids:
                 garbage = True  # not under this prefix: not a superposition of answers
                 continue
             split = next(i for i in range(UID_BITS) if not _bit(u, i) and not _bit(c, i))
-            if split < k:
+            nib = split // 4
+            if nib < k:
                 garbage = True
                 continue
-            splits.append((split, u & ((1 << split) - 1)))
+            splits.append((nib, u & ((1 << (4 * nib)) - 1)))
         return ids, splits, garbage
 
-    def enumerate(self, slot_bits=SLOT_BITS, max_rounds=2000):
+    def enumerate(self, max_rounds=5000):
         """Every servo on the bus at this baud, whatever its ID: a list of Identity sorted
         by (id, uid). self.enumerate_rounds says how many ENUMERATE rounds it took."""
-        V.strict_integer(slot_bits, "slot bits", 1, 8)
         found = {}
         todo = collections.deque([(0, 0)])
         asked = set()
@@ -178,20 +178,20 @@ class Ids:
             asked.add((k, prefix))
             if rounds >= max_rounds:
                 raise ServoBusError("enumerate: still collisions after %d rounds" % rounds)
-            bits = min(slot_bits, UID_BITS - k)
-            ids, splits, garbled = self.enumerate_round(k, prefix, bits)
+            ids, splits, garbled = self.enumerate_round(k, prefix)
             rounds += 1
             clean = set()
             for ident in ids:
                 found[ident.uid] = ident
-                clean.add((_uid_int(ident.uid) >> k) & ((1 << bits) - 1))
-            for split in splits:
-                todo.append(split)
-                clean.add((split[1] >> k) & ((1 << bits) - 1) if split[0] > k else -1)
-            if garbled and k + bits <= UID_BITS:
-                for s in range(1 << bits):
-                    if s not in clean and k + bits < UID_BITS:
-                        todo.append((k + bits, prefix | s << k))
+                clean.add((_uid_int(ident.uid) >> (4 * k)) & 15)
+            for nib, pre in splits:
+                todo.append((nib, pre))
+                if nib > k:
+                    clean.add((pre >> (4 * k)) & 15)
+            if garbled and k + 1 < NIBBLES:
+                for s in range(SLOTS):
+                    if s not in clean:
+                        todo.append((k + 1, prefix | s << (4 * k)))
         self.enumerate_rounds = rounds
         return sorted(found.values(), key=lambda i: (i.id, i.uid))
 
@@ -233,7 +233,7 @@ class Ids:
         self._ident(P.BROADCAST, SET_ID, uid + bytes([new_id]), 0.0)
         self._variants.pop(before.id, None)
         self._variants.pop(new_id, None)
-        for _ in range(3):  # an ID write waits for the flash commit: give it time
+        for _ in range(8):  # an ID write waits for the flash commit: give it time
             self.pause(0.05)
             try:
                 after = self.identify(uid)
