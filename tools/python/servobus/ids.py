@@ -212,19 +212,32 @@ class Ids:
         if len(ones) == 1 and not garbage:
             return ones[0]
         if ones or garbage or found:
+            if uid is not None:
+                raise ProtocolError("UID %s: its IDENTIFY answer came garbled %s" % (
+                    uid_text(uid), self._where()))
             raise DuplicateId("more than one servo answers at ID %s: identify them by UID "
                               "(`servoctl ids`)" % servo_id)
         who = "UID %s" % uid_text(uid) if uid is not None else "ID %d" % servo_id
         raise BusTimeout("%s does not answer IDENTIFY %s" % (who, self._where()), servo_id)
 
-    def set_id_by_uid(self, uid, new_id, check_free=True):
+    def set_id_by_uid(self, uid, new_id, check_free=True, verify=True):
         """Give the servo with uid (at any ID, others may share it) the ID new_id, kept in
         flash as any ID write; then confirm it by IDENTIFY. IdTaken if another servo
-        already answers at new_id (check_free)."""
+        already answers at new_id (check_free). verify=False: one broadcast frame, no
+        check (fix_duplicates checks them all with one enumerate())."""
         uid = parse_uid(uid)
         if isinstance(new_id, bool) or not isinstance(new_id, int) or \
                 not 0 <= new_id <= P.ID_MAX:
             raise RangeError("ID %r is out of range 0..253" % (new_id,))
+        if not verify:
+            frame = self.send(P.BROADCAST, P.CUSTOM, bytes([SUB, SET_ID]) + uid +
+                              bytes([new_id]))
+            # frames sent back to back queue up on the wire: the next request's answer
+            # window starts only once they have all left it (the servo answers none)
+            self._quiet_at = max(self._quiet_at, time.monotonic()) + \
+                len(frame) * P.byte_time(self.baud)
+            self._variants.pop(new_id, None)
+            return None
         before = self.identify(uid)
         if before.id == new_id:
             return before
@@ -263,8 +276,14 @@ class Ids:
                 if not pool:
                     raise IdTaken("no free ID left for UID %s" % uid_text(ident.uid))
                 new = pool.pop(0)
-                self.set_id_by_uid(ident.uid, new, check_free=False)
+                self.set_id_by_uid(ident.uid, new, check_free=False, verify=False)
                 moves.append((ident.uid, sid, new))
+        if moves:  # one check of them all; what did not take is given its ID again
+            self.pause(0.05)
+            now = {i.uid: i.id for i in self.enumerate()}
+            for uid, _, new in moves:
+                if now.get(uid) != new:
+                    self.set_id_by_uid(uid, new, check_free=False)
         return moves
 
     def adopt(self, expect, idents=None, known=None):
