@@ -10,7 +10,8 @@
 #include "proto.h"
 
 static const char usage[] =
-    "usage: servo-sim --listen HOST:PORT [--servo ID:VARIANT[:UID]]... [--state-dir DIR] "
+    "usage: servo-sim --listen HOST:PORT [--servo ID:VARIANT[:UID]]... "
+    "[--uart HOST:PORT[:BAUD]]... [--state-dir DIR] "
     "[--report-commits]";
 
 static bool parse_uint(const char *s, unsigned long max, unsigned long *out)
@@ -132,6 +133,27 @@ static void add_servo(struct sim_args *a, const char *text)
     a->servo[a->nservos++] = s; /* one ID may repeat (factory-fresh servos): issue 27 */
 }
 
+/* --uart HOST:PORT[:BAUD] */
+static void add_uart(struct sim_args *a, const char *text)
+{
+    char addr[80];
+    unsigned long baud = 9600;
+    if (a->nuarts >= sizeof a->uart / sizeof a->uart[0])
+        die(2, "too many --uart: at most %zu", sizeof a->uart / sizeof a->uart[0]);
+    if (strlen(text) >= sizeof addr)
+        die(2, "bad --uart '%s': expected HOST:PORT[:BAUD]", text);
+    strcpy(addr, text);
+    char *first = strchr(addr, ':'), *last = strrchr(addr, ':');
+    if (first && last != first) {
+        *last = 0;
+        if (!parse_uint(last + 1, 4000000, &baud) || baud < 1200)
+            die(2, "bad baud in --uart '%s'", text);
+    }
+    parse_listen(addr, &a->uart[a->nuarts]);
+    a->uart_baud[a->nuarts] = (uint32_t)baud;
+    a->uart_text[a->nuarts++] = text;
+}
+
 void args_parse(int argc, char **argv, struct sim_args *a)
 {
     memset(a, 0, sizeof *a);
@@ -145,6 +167,8 @@ void args_parse(int argc, char **argv, struct sim_args *a)
             a->listen_text = val;
         } else if ((val = option(argc, argv, &i, "--servo"))) {
             add_servo(a, val);
+        } else if ((val = option(argc, argv, &i, "--uart"))) {
+            add_uart(a, val);
         } else if (strcmp(argv[i], "--report-commits") == 0) {
             a->report_commits = true;
         } else if ((val = option(argc, argv, &i, "--state-dir"))) {

@@ -1,7 +1,10 @@
 /* args.h - servo-sim's command line:
  *
- *   servo-sim --listen HOST:PORT [--servo ID:VARIANT[:UID]]... [--state-dir DIR]
- *             [--report-commits]
+ *   servo-sim --listen HOST:PORT [--servo ID:VARIANT[:UID]]... [--uart HOST:PORT[:BAUD]]...
+ *             [--state-dir DIR] [--report-commits]
+ *
+ * --uart: a device behind a TCP byte stream on the line (tools/sim/bus.h bus_add_ext),
+ * e.g. a QEMU-run arm image's USART1 (tools/qemu_servo.py), at BAUD (default 9600).
  *
  * Several --servo may share an ID, as a bus of factory-fresh servos does (issue 27):
  * they all answer, and their answers garble. UID: the node's unique identity (hal_uid(),
@@ -36,6 +39,10 @@ struct sim_args {
     bool report_commits;   /* --report-commits: each servo's commit tokens on stderr */
     unsigned nservos;      /* at least 1: one arm with ID 1 when none is given */
     struct servo_arg servo[SIM_SERVOS_MAX];
+    unsigned nuarts;
+    struct sockaddr_in uart[8];
+    uint32_t uart_baud[8];
+    const char *uart_text[8];
 };
 
 /* The UID of the n-th servo when none is given: bytes 0-3 a mix of n (where STM32 UIDs

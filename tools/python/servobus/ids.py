@@ -96,7 +96,7 @@ def _decode(raw):
             if raw[22] <= len(BAUD_RATES) else None
         return ("one", Identity(bytes(uid), raw[18], name, model, baud, raw[4]))
     if u & c == 0 and u | c != full:
-        return ("and", u, c)
+        return ("and", u, c, raw[5])
     return None
 
 
@@ -152,13 +152,15 @@ class Ids:
             if got[0] == "one":
                 ids.append(got[1])
                 continue
-            _, u, c = got
+            _, u, c, _op = got
             if u & mask != prefix & mask or (~c) & mask != prefix & mask:
                 garbage = True  # not under this prefix: not a superposition of answers
                 continue
             split = next(i for i in range(UID_BITS) if not _bit(u, i) and not _bit(c, i))
             nib = split // 4
-            if nib < k:
+            if nib <= k or got[3] != ENUMERATE:
+                # answers in one slot agree on its nibble: a first difference there, or
+                # below, is garbage that happens to look like a superposition
                 garbage = True
                 continue
             splits.append((nib, u & ((1 << (4 * nib)) - 1)))
@@ -168,11 +170,13 @@ class Ids:
         """Every servo on the bus at this baud, whatever its ID: a list of Identity sorted
         by (id, uid). self.enumerate_rounds says how many ENUMERATE rounds it took."""
         found = {}
-        todo = collections.deque([(0, 0)])
+        # (k, prefix, fallback): fallback is asked when a split read from a superposed
+        # answer finds nobody clean (garbage that looked like a superposition)
+        todo = collections.deque([(0, 0, None)])
         asked = set()
         rounds = 0
         while todo:
-            k, prefix = todo.popleft()
+            k, prefix, fallback = todo.popleft()
             if (k, prefix) in asked:
                 continue
             asked.add((k, prefix))
@@ -185,13 +189,15 @@ class Ids:
                 found[ident.uid] = ident
                 clean.add((_uid_int(ident.uid) >> (4 * k)) & 15)
             for nib, pre in splits:
-                todo.append((nib, pre))
-                if nib > k:
-                    clean.add((pre >> (4 * k)) & 15)
+                slot = (pre >> (4 * k)) & 15
+                deeper = (k + 1, prefix | slot << (4 * k), None) if k + 1 < NIBBLES else None
+                todo.append((nib, pre, deeper))
+            if fallback is not None and not ids and not splits:
+                todo.append(fallback)
             if garbled and k + 1 < NIBBLES:
                 for s in range(SLOTS):
                     if s not in clean:
-                        todo.append((k + 1, prefix | s << (4 * k)))
+                        todo.append((k + 1, prefix | s << (4 * k), None))
         self.enumerate_rounds = rounds
         return sorted(found.values(), key=lambda i: (i.id, i.uid))
 
