@@ -284,12 +284,18 @@ class Ids:
                 new = pool.pop(0)
                 self.set_id_by_uid(ident.uid, new, check_free=False, verify=False)
                 moves.append((ident.uid, sid, new))
-        if moves:  # one check of them all; what did not take is given its ID again
+        left = list(moves)
+        for attempt in range(4):  # one check of them all; what did not take is sent again
+            if not left:
+                break
             self.pause(0.05)
             now = {i.uid: i.id for i in self.enumerate()}
-            for uid, _, new in moves:
-                if now.get(uid) != new:
-                    self.set_id_by_uid(uid, new, check_free=False)
+            left = [m for m in left if now.get(m[0]) != m[2]]
+            for uid, _, new in left if attempt < 3 else ():
+                self.set_id_by_uid(uid, new, check_free=False, verify=False)
+        if left:
+            raise ProtocolError("%d servo(s) did not take their new ID: %s" % (
+                len(left), ", ".join("UID %s -> %d" % (uid_text(u), n) for u, _, n in left)))
         return moves
 
     def adopt(self, expect, idents=None, known=None):
