@@ -100,6 +100,26 @@ def _decode(raw):
     return None
 
 
+def _identities(idents):
+    """A list of Identity, or RangeError."""
+    if not isinstance(idents, (list, tuple)) or \
+            not all(isinstance(i, Identity) for i in idents):
+        raise RangeError("idents: give the list enumerate() returned, not %r" % (idents,))
+    return list(idents)
+
+
+def _id_list(ids, what):
+    """A list of servo IDs 0-253, or RangeError."""
+    if isinstance(ids, (str, bytes, dict)) or not isinstance(ids, (list, tuple, set, range)):
+        raise RangeError("%s: give a list of IDs 0-253, not %r" % (what, ids))
+    out = []
+    for i in ids:
+        if isinstance(i, bool) or not isinstance(i, int) or not 0 <= i <= P.ID_MAX:
+            raise RangeError("%s: %r is not an ID 0-253" % (what, i))
+        out.append(i)
+    return out
+
+
 class Ids:
     """Enumerate, identify, set an ID by UID (a mixin of Bus: it uses Link)."""
 
@@ -142,6 +162,8 @@ class Ids:
         splits a list of (k', prefix') to ask next, read from superimposed answers;
         garbled True if bytes came that no slot can be told from."""
         V.strict_integer(k, "prefix nibbles", 0, NIBBLES - 1)
+        if isinstance(prefix, bool) or not isinstance(prefix, int) or prefix < 0:
+            raise RangeError("prefix %r: give the UID's first bits as an int >= 0" % (prefix,))
         bits = 4 * k
         pbytes = (prefix & ((1 << bits) - 1)).to_bytes(UID_BYTES, "little")[:(k + 1) // 2]
         window = TURNAROUND_S + SLOTS * slot_time(self.baud)
@@ -169,6 +191,7 @@ class Ids:
     def enumerate(self, max_rounds=5000):
         """Every servo on the bus at this baud, whatever its ID: a list of Identity sorted
         by (id, uid). self.enumerate_rounds says how many ENUMERATE rounds it took."""
+        V.strict_integer(max_rounds, "max_rounds", 1, 100000)
         found = {}
         # (k, prefix, fallback): fallback is asked when a split read from a superposed
         # answer finds nobody clean (garbage that looked like a superposition)
@@ -268,7 +291,9 @@ class Ids:
         old ID; the
         others take the lowest free IDs in turn (from 1 up; `free` may give the list).
         Returns [(uid, old id, new id)]."""
-        idents = self.enumerate() if idents is None else list(idents)
+        idents = self.enumerate() if idents is None else _identities(idents)
+        if free is not None:
+            free = _id_list(free, "free")
         by_id = collections.defaultdict(list)
         for i in idents:
             by_id[i.id].append(i)
@@ -307,13 +332,15 @@ class Ids:
         Refuses (ServoBusError, nothing written) when that is ambiguous: no or several
         silent IDs, no or several newcomers, or two servos on an expected ID that
         `known` cannot tell apart. Returns (uid, new id)."""
+        if known is not None and (not isinstance(known, dict) or not all(
+                isinstance(u, bytes) and len(u) == UID_BYTES and isinstance(i, int)
+                for u, i in known.items())):
+            raise RangeError("known: give a dict of 12-byte UIDs to IDs, not %r" % (known,))
         known = dict(known or {})
+        expect = sorted(set(_id_list(expect, "expected IDs")))
         if not expect:
             raise RangeError("adopt: give the expected IDs")
-        expect = sorted(set(expect))
-        for e in expect:
-            check_id(e)
-        idents = self.enumerate() if idents is None else list(idents)
+        idents = self.enumerate() if idents is None else _identities(idents)
         present = collections.Counter(i.id for i in idents)
         newcomers = [i for i in idents if i.id not in expect]
         shared = []
