@@ -131,7 +131,9 @@ class Ids:
         self.check_stop()
         self._put(frame)
         sent = time.monotonic()
-        deadline = sent + len(frame) * P.byte_time(self.baud) + window + self.slack()
+        # Bus(timeout=) widens the slack (a simulator behind real time, a slow adapter)
+        slack = self.slack() if self.timeout is None else max(self.slack(), self.timeout)
+        deadline = sent + len(frame) * P.byte_time(self.baud) + window + slack
         self._quiet_at = max(self._quiet_at, deadline)
         buf = bytearray()
         while time.monotonic() < deadline:
