@@ -93,7 +93,7 @@ if(SERVO_QEMU)
     set(SERVO_APP_PORT_SOURCES hal/stm32f1/qemu_plant.c hal/stm32f1/qemu_flash.c)
 else()
     set(SERVO_IMAGE_NAME ${BOARD})
-    set(SERVO_APP_PORT_SOURCES hal/stm32f1/motor.c hal/stm32f1/flash.c)
+    set(SERVO_APP_PORT_SOURCES hal/stm32f1/motor.c hal/stm32f1/flash.c hal/stm32f1/uid.c)
 endif()
 
 # Relink (and so re-run the checks) when a linker script or a check changes.

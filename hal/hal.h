@@ -73,6 +73,13 @@ bool hal_flash_erase(struct hal *h, uint8_t p);
 /* Program the half-word at byte offset off (even) of page p; the half-word was erased. */
 bool hal_flash_program(struct hal *h, uint8_t p, uint16_t off, uint16_t value);
 
+/* The MCU's unique identity, 12 bytes (issue 27, include/ident.h): the STM32F1's 96-bit
+ * unique ID at 0x1FFFF7E8; under QEMU, whose STM32F100 has none, 12 bytes at the top of
+ * its flash, 0x0801FFF0, that the test loads per instance; on the host, each node's own
+ * (servo-sim --servo ID:VARIANT:UID). Never changes while the MCU runs. Any context. */
+#define HAL_UID_BYTES 12u
+const uint8_t *hal_uid(struct hal *h);
+
 /* Reset the MCU (the bootloader runs again and starts the installed image). Main loop,
  * after the last answer has left the wire. Does not return on an MCU; the host port
  * records the request and its harness power-cycles the servo. */

@@ -61,6 +61,10 @@ static inline uint8_t link_id(const struct link *l)
     return l->id;
 }
 
+static inline uint32_t link_baud_in_force(const struct link *l)
+{
+    return l->baud;
+}
 static inline uint8_t link_level(const struct link *l)
 {
     return l->level;

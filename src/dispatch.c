@@ -5,6 +5,7 @@
 
 #include "dispatch.h"
 #include "hal.h"
+#include "ident.h"
 #include "loader.h"
 #include "command.h"
 #include "motion.h"
@@ -285,6 +286,10 @@ void dispatch_frame(struct servo *s, const struct frame *f)
     }
 
     safety_packet_seen(&s->safety); /* §7.1: any valid packet for this servo feeds the heartbeat */
+    if (f->buf[2] == INS_CUSTOM && f->buf[1] > 3u && f->buf[3] == IDENT_SUB) {
+        ident_frame(s, &f->buf[4], (uint8_t)(f->buf[1] - 3u), broadcast, f->end_us);
+        return; /* answered by ident.c, at ID 0xFF, or not at all (ident.h) */
+    }
     const struct instruction *in =
         find(dispatch_instructions, dispatch_instruction_count, f->buf[2]);
     uint8_t n = (uint8_t)(f->buf[1] - 2u); /* LEN counts INS and CHK */

@@ -179,8 +179,8 @@ static void run_line(struct vbus *b, char **tok, int ntok)
     tok++;
     ntok--;
     if (strcmp(cmd, "servo") == 0) {
-        if (ntok != 2)
-            fail("servo ID VARIANT");
+        if (ntok != 2 && ntok != 3)
+            fail("servo ID VARIANT [UID]");
         const struct board *bd = board_find(tok[1]);
         if (!bd)
             fail("unknown variant '%s'", tok[1]);
@@ -190,7 +190,15 @@ static void run_line(struct vbus *b, char **tok, int ntok)
         if (b->nodes == 0)
             b->host_baud = bd->default_baud;
         node_name[b->nodes] = (uint8_t)id;
-        vbus_add(b, bd, (uint8_t)id);
+        struct hal *h = &b->node[vbus_add(b, bd, (uint8_t)id)].hal;
+        if (ntok == 3) { /* hal_uid(): 24 hex digits, byte 0 first */
+            if (strlen(tok[2]) != 2u * HAL_UID_BYTES)
+                fail("a UID is 24 hex digits");
+            for (unsigned i = 0; i < HAL_UID_BYTES; i++) {
+                char pair[3] = {tok[2][2u * i], tok[2][2u * i + 1u], 0};
+                h->uid[i] = (uint8_t)number(pair, 16);
+            }
+        }
     } else if (!b->nodes) {
         fail("declare a servo first");
     } else if (strcmp(cmd, "host-baud") == 0 && ntok == 1) {

@@ -72,6 +72,8 @@ echo
 echo
 "$build/tools/bench_safety"
 /usr/bin/python3 tools/bench_sim.py "$build"
+echo
+/usr/bin/python3 tools/bench_ids.py "$build"
 /usr/bin/python3 tools/bench_studio.py "$build"
 echo
 "$build/tests/corruption" 1000000

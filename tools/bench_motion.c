@@ -41,6 +41,7 @@ bool hal_flash_program(struct hal *h, uint8_t p, uint16_t off, uint16_t v)
 }
 void hal_restart(struct hal *h) { (void)h; }
 bool hal_reset_by_power(struct hal *h) { (void)h; return true; }
+const uint8_t *hal_uid(struct hal *h) { static const uint8_t uid[HAL_UID_BYTES]; (void)h; return uid; }
 void hal_motor_enable(struct hal *h, bool on) { (void)h; (void)on; }
 void hal_motor_drive(struct hal *h, int16_t duty) { h->duty = duty; }
 int32_t hal_motor_position(struct hal *h) { return h->pos += h->duty / 40; }

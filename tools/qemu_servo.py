@@ -8,6 +8,10 @@ QEMU's flash starts as zeros, silicon's as 0xFF: the staging slot and the store'
 are loaded erased. -no-reboot: a reset (a fault; nothing else restarts the MCU under
 QEMU) ends QEMU instead of booting again, so it cannot pass unnoticed.
 
+QEMU's STM32F100 has no unique-ID region: an instance's UID (issue 27, hal_uid()) is 12
+bytes loaded at 0x0801FFF0, the top of its 128 KiB flash (QemuServo(uid=...), --uid);
+without one it reads 12 zero bytes.
+
 Usage: qemu_servo.py [--port N] [build/qemu/servo-qemu-full.bin build/qemu/servo-qemu.elf]
 """
 import argparse
@@ -23,6 +27,7 @@ REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 IMAGE = os.path.join(REPO, "build", "qemu", "servo-qemu-full.bin")
 ELF = os.path.join(REPO, "build", "qemu", "servo-qemu.elf")
 FLASH_BASE = 0x08000000
+UID_ADDR = 0x0801FFF0  # hal/stm32f1/qemu_flash.c hal_uid(): QEMU models no unique-ID region
 PING = bytes.fromhex("D55D01020104")
 
 
@@ -70,7 +75,7 @@ class QemuServo:
     """One emulated MCU: proc (the QEMU process), port (USART1's TCP port, a server that
     takes one client at a time), url (tcp://127.0.0.1:port). stop() always kills it."""
 
-    def __init__(self, image=IMAGE, elf=ELF, port=None, extra=()):
+    def __init__(self, image=IMAGE, elf=ELF, port=None, extra=(), uid=None):
         for path in (image, elf):
             if not os.path.isfile(path):
                 raise FileNotFoundError(f"{path} not found: build the qemu preset first "
@@ -81,6 +86,13 @@ class QemuServo:
         erased = os.path.join(self.tmp.name, "erased.bin")
         with open(erased, "wb") as f:
             f.write(b"\xff" * (store_end - staging))
+        if uid is not None:  # hal_uid() under QEMU: 12 bytes at the top of flash
+            if len(uid) != 12:
+                raise ValueError("a UID is 12 bytes")
+            path = os.path.join(self.tmp.name, "uid.bin")
+            with open(path, "wb") as f:
+                f.write(bytes(uid))
+            extra = ("-device", f"loader,file={path},addr=0x{UID_ADDR:08x}", *extra)
         self.port = port or free_port()
         self.url = f"tcp://127.0.0.1:{self.port}"
         self.cmd = ["qemu-system-arm", "-M", "stm32vldiscovery", "-nographic",
@@ -135,10 +147,12 @@ class QemuServo:
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--port", type=int, default=0, help="TCP port of USART1 (default: free)")
+    ap.add_argument("--uid", type=bytes.fromhex, default=None,
+                    help="the instance's unique ID, 24 hex digits (default: 12 zero bytes)")
     ap.add_argument("image", nargs="?", default=IMAGE)
     ap.add_argument("elf", nargs="?", default=ELF)
     a = ap.parse_args()
-    q = QemuServo(a.image, a.elf, a.port or None)
+    q = QemuServo(a.image, a.elf, a.port or None, uid=a.uid)
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(0))
     try:
         if not q.wait_ready():

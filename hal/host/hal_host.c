@@ -16,6 +16,11 @@ void hal_host_init(struct hal *h)
     h->power_reset = true;
 }
 
+const uint8_t *hal_uid(struct hal *h)
+{
+    return h->uid;
+}
+
 void hal_host_reboot(struct hal *h)
 {
     h->baud = 9600;

@@ -53,6 +53,7 @@ struct hal {
     int16_t temperature_dc;
     uint8_t photo;          /* switch bits when photo_sim is off */
     bool photo_sim;         /* switches follow the motor: */
+    uint8_t uid[HAL_UID_BYTES]; /* hal_uid(): the harness sets it per node */
     double sw1_deg, sw2_deg; /* switch 1 reads high beyond sw1 (away from sw2), 2 beyond sw2 */
     bool termination;
     bool restart_requested; /* hal_restart() was called; the harness reboots */

@@ -112,3 +112,14 @@ bool hal_flash_program(struct hal *h, uint8_t p, uint16_t off, uint16_t value)
     page[off + 1u] = (uint8_t)(value >> 8);
     return true;
 }
+
+/* hal.h hal_uid: QEMU's STM32F100 has no unique-ID region, so each instance's 12 bytes
+ * sit at the top of its 128 KiB flash, 0x0801FFF0, where the test loads them
+ * (-device loader; tools/qemu_servo.py --uid). Nothing else lives there. */
+#define QEMU_UID_ADDR 0x0801FFF0u
+
+const uint8_t *hal_uid(struct hal *h)
+{
+    (void)h;
+    return (const uint8_t *)QEMU_UID_ADDR;
+}

@@ -227,6 +227,15 @@ void hal_restart(struct hal *h)
     (void)h;
 }
 
+/* Any context. The MCU's unique identity, 12 bytes that never change (a factory-programmed
+ * unique ID; an MCU without one: a serial number written once at production). */
+const uint8_t *hal_uid(struct hal *h)
+{
+    static const uint8_t uid[HAL_UID_BYTES]; /* TODO(port): the MCU's unique ID */
+    (void)h;
+    return uid;
+}
+
 bool hal_reset_by_power(struct hal *h)
 {
     (void)h;

@@ -33,7 +33,8 @@
  *      (while the application runs: three power cycles in a row before it confirms
  *      its start leave the servo in update mode, docs/update.md, which has no table;
  *      nor has an image that hangs at start, which a seed installs);
- *   2. no answer is scheduled for a broadcast frame other than PING;
+ *   2. no answer is scheduled for a broadcast frame other than PING and the identity
+ *      sub-command (include/ident.h: answered at ID 0xFF);
  *   3. from power-up the motor stays off (bridge disabled, duty 0) until a frame with a
  *      good checksum other than PING or READ has been dispatched;
  *   4. after a WRITE of moving speed 0 (bits 0-14) that the servo accepted, the drive
@@ -49,6 +50,7 @@
 #include "../identity_check.h"
 #include "fuzz.h"
 #include "hal_host.h"
+#include "ident.h"
 #include "proto.h"
 #include "servo.h"
 
@@ -139,7 +141,9 @@ static void poll_once(void)
         const uint8_t *buf = f->buf;
         uint16_t len = f->len;
         bool ok = f->status == FRAME_OK;
-        if (buf[0] == PROTO_ID_BROADCAST && !(ok && buf[2] == INS_PING))
+        /* The identity sub-command (include/ident.h) answers broadcasts, at ID 0xFF. */
+        bool ident = ok && buf[2] == INS_CUSTOM && buf[1] > 3u && buf[3] == IDENT_SUB;
+        if (buf[0] == PROTO_ID_BROADCAST && !(ok && buf[2] == INS_PING) && !ident)
             CHECK(servo.link.state == LINK_IDLE); /* invariant 2 */
         if (ok) {
             speed0_window = false;

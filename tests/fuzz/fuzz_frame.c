@@ -16,9 +16,9 @@
  *
  * Invariants, after every dispatched frame and every answer sent (abort on violation):
  *   1. the identity registers are unchanged; every register is in its range; CW <= CCW;
- *   2. no answer to a broadcast other than PING;
+ *   2. no answer to a broadcast other than PING and the identity sub-command (0x11);
  *   3. every answer is well-formed: D5 5D, the servo's own ID (the one in force when the
- *      frame arrived), LEN = the bytes that follow it, the 8-bit sum of ID to the last
+ *      frame arrived; 0xFF for the identity sub-command, include/ident.h), LEN = the bytes that follow it, the 8-bit sum of ID to the last
  *      parameter as its last byte; and only a frame for that ID or a broadcast gets one.
  *
  * An input whose byte 0 is F0 or more is instead a packet sequence with one damaged
@@ -47,6 +47,7 @@
 #include "../identity_check.h"
 #include "fuzz.h"
 #include "hal_host.h"
+#include "ident.h"
 #include "proto.h"
 #include "servo.h"
 
@@ -162,9 +163,13 @@ static bool poll_once(void)
             /* An answer is scheduled, so the settings in force are still those the frame
              * arrived under (new ones apply once the answer is out). */
             uint8_t my_id = servo.link.id;
-            FUZZ_CHECK(buf[0] == my_id || (buf[0] == PROTO_ID_BROADCAST && ping));
+            /* The identity sub-command (include/ident.h) answers at ID 0xFF, broadcast
+             * included: the one exception to invariants 2 and 3's ID. */
+            bool ident = status == FRAME_OK && buf[2] == INS_CUSTOM && buf[1] > 3u &&
+                         buf[3] == IDENT_SUB;
+            FUZZ_CHECK(buf[0] == my_id || (buf[0] == PROTO_ID_BROADCAST && (ping || ident)));
             answer.pending = true;
-            answer.id = my_id;
+            answer.id = ident ? PROTO_ID_INVALID : my_id;
         }
         check_table();
     }

@@ -3,6 +3,7 @@
 
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <time.h>
 
 #include "link.h"
@@ -41,7 +42,26 @@ struct rx_next {
     uint32_t changes, baud;
     struct wire_rx_byte b;
 };
-static struct rx_next rx_cache[SIM_SERVOS_MAX + 1u];
+static struct rx_next rx_cache[SIM_SERVOS_MAX + 1u + BUS_EXT_MAX];
+
+/* External UARTs on the line (bus_add_ext: a QEMU-run image's USART1 over TCP), after
+ * the host among the talkers and receivers: receiver servo_count + 1 + e. */
+struct ext {
+    int fd;
+    uint32_t baud;
+    struct wire_rx rx;
+    uint64_t raw_next;  /* the next raw client byte its UART takes */
+    int64_t raw_end_ns;
+    uint8_t out[BUS_EXT_OUT];
+    size_t out_len;
+};
+static struct ext exts[BUS_EXT_MAX];
+static unsigned ext_count;
+
+static unsigned ext_talker(unsigned e)
+{
+    return servo_count + 1u + e;
+}
 static bool run_now[SIM_SERVOS_MAX];
 static int64_t ran_us[SIM_SERVOS_MAX]; /* when each servo's main loop last ran */
 
@@ -188,7 +208,8 @@ static bool flash_blank(const struct hal *h)
     return true;
 }
 
-void bus_add(uint8_t arg_id, const struct board *b, const char *state_dir)
+void bus_add(uint8_t arg_id, const struct board *b, const uint8_t uid[HAL_UID_BYTES],
+             bool uid_names_file, const char *state_dir)
 {
     struct sim_servo *v = calloc(1, sizeof *v);
     if (!v)
@@ -196,8 +217,10 @@ void bus_add(uint8_t arg_id, const struct board *b, const char *state_dir)
     v->arg_id = arg_id;
     servos[servo_count++] = v;
     node_init(&v->node, b, HAL_HOST_CLOCK_START); /* configuration runs before the real clock */
+    memcpy(v->node.hal.uid, uid, HAL_UID_BYTES);
     if (state_dir) /* before power-up: the store reads the flash there */
-        state_open(&v->state, &v->node.hal, state_dir, arg_id, b->name);
+        state_open(&v->state, &v->node.hal, state_dir, arg_id, b->name,
+                   uid_names_file ? uid : NULL);
     else
         state_none(&v->state, &v->node.hal);
     bool blank = flash_blank(&v->node.hal);
@@ -214,7 +237,9 @@ void bus_start(void)
     clock_gettime(CLOCK_MONOTONIC, &clock_zero);
     frontier_us = next_tick_us = bus_now();
     host_talker = servo_count;
-    wire_init(&wire, servo_count + 1u);
+    wire_init(&wire, servo_count + 1u + ext_count);
+    for (unsigned e = 0; e < ext_count; e++)
+        exts[e].rx.hunt_ns = frontier_us * 1000;
     for (unsigned i = 0; i < servo_count; i++) {
         ran_us[i] = frontier_us;
         servos[i]->node.hal.now_us = (uint32_t)frontier_us; /* the real clock starts */
@@ -261,8 +286,9 @@ static const struct wire_rx_byte *rx_peek(unsigned r)
     bool host = r == servo_count;
     if (host && !host_listening)
         return 0;
-    struct wire_rx *rx = host ? &host_rx : &servos[r]->rx;
-    uint32_t baud = host ? host_baud : servos[r]->node.hal.baud;
+    struct ext *x = r > servo_count ? &exts[r - servo_count - 1u] : 0;
+    struct wire_rx *rx = x ? &x->rx : host ? &host_rx : &servos[r]->rx;
+    uint32_t baud = x ? x->baud : host ? host_baud : servos[r]->node.hal.baud;
     struct rx_next *c = &rx_cache[r];
     if (!c->valid || c->changes != wire.changes || c->baud != baud) {
         rx->baud = baud;
@@ -286,12 +312,19 @@ static void rx_deliver(unsigned r, int64_t t)
 {
     const struct wire_rx_byte *b = rx_peek(r);
     bool host = r == servo_count;
-    bool heard = b->framing_ok && !wire_talker_busy(&wire, host ? host_talker : r, b->stop_ns);
+    struct ext *x = r > servo_count ? &exts[r - servo_count - 1u] : 0;
+    unsigned talker = x ? ext_talker(r - servo_count - 1u) : host ? host_talker : r;
+    bool heard = b->framing_ok && !wire_talker_busy(&wire, talker, b->stop_ns);
     uint8_t byte = b->byte;
-    wire_rx_take(host ? &host_rx : &servos[r]->rx, b);
+    wire_rx_take(x ? &x->rx : host ? &host_rx : &servos[r]->rx, b);
     rx_cache[r].valid = false;
     if (!heard)
         return;
+    if (x) {
+        if (x->out_len < sizeof x->out)
+            x->out[x->out_len++] = byte;
+        return;
+    }
     if (host) {
         if (host_out_len < HOST_OUT_MAX)
             host_out[host_out_len++] = byte;
@@ -339,6 +372,29 @@ static void raw_deliver(unsigned i, int64_t t)
     }
 }
 
+/* External UART e takes the raw client's bytes as servo i's does: paced at its baud. */
+static int64_t ext_raw_end_ns(unsigned e)
+{
+    const struct ext *x = &exts[e];
+    if (x->raw_next == raw_in)
+        return NONE;
+    int64_t start = raw_at_us[x->raw_next % BUS_RAW_MAX] * 1000;
+    if (x->raw_end_ns > start)
+        start = x->raw_end_ns;
+    return wire_bit_ns(start, x->baud, 10u);
+}
+
+static void ext_raw_deliver(unsigned e, int64_t t)
+{
+    struct ext *x = &exts[e];
+    for (int64_t end; (end = ext_raw_end_ns(e)) != NONE && ceil_us(end) <= t;) {
+        if (x->out_len < sizeof x->out)
+            x->out[x->out_len++] = raw_byte[x->raw_next % BUS_RAW_MAX];
+        x->raw_next++;
+        x->raw_end_ns = end;
+    }
+}
+
 /* Frames servo i's receiver had to drop since the last report: say so on stderr, at
  * most one line per servo per BUS_DROPS_US of bus time (a storm would flood it). */
 #define BUS_DROPS_US 100000
@@ -375,12 +431,17 @@ static int64_t next_event(void)
         int64_t a = answer_event(i);
         t = a < t ? a : t;
     }
-    for (unsigned r = 0; r <= servo_count; r++) {
+    for (unsigned r = 0; r <= servo_count + ext_count; r++) {
         int64_t d = rx_due(r);
         t = d < t ? d : t;
     }
     for (unsigned i = 0; i < servo_count; i++) {
         int64_t d = raw_due(i);
+        t = d < t ? d : t;
+    }
+    for (unsigned e = 0; e < ext_count; e++) {
+        int64_t d = ext_raw_end_ns(e);
+        d = d == NONE ? NONE : ceil_us(d);
         t = d < t ? d : t;
     }
     return t;
@@ -389,10 +450,11 @@ static int64_t next_event(void)
 static void prune(void)
 {
     int64_t keep = frontier_us * 1000;
-    for (unsigned r = 0; r <= servo_count; r++) {
+    for (unsigned r = 0; r <= servo_count + ext_count; r++) {
         if (r == servo_count && !host_listening)
             continue;
-        int64_t h = r == servo_count ? host_rx.hunt_ns : servos[r]->rx.hunt_ns;
+        int64_t h = r > servo_count ? exts[r - servo_count - 1u].rx.hunt_ns
+                    : r == servo_count ? host_rx.hunt_ns : servos[r]->rx.hunt_ns;
         keep = h < keep ? h : keep;
     }
     wire_prune(&wire, keep - 1);
@@ -408,11 +470,13 @@ void bus_advance(int64_t now)
             break;
         if (t < frontier_us)
             t = frontier_us;
-        for (unsigned r = 0; r <= servo_count; r++)
+        for (unsigned r = 0; r <= servo_count + ext_count; r++)
             if (rx_due(r) <= t)
                 rx_deliver(r, t);
         for (unsigned i = 0; i < servo_count; i++)
             raw_deliver(i, t);
+        for (unsigned e = 0; e < ext_count; e++)
+            ext_raw_deliver(e, t);
         bool tick = t >= next_tick_us;
         for (unsigned i = 0; i < servo_count; i++) {
             if (tick || run_now[i] || answer_event(i) <= t)
@@ -450,6 +514,8 @@ static void raw_forget(void)
 {
     for (unsigned i = 0; i < servo_count; i++)
         servos[i]->raw_next = raw_in;
+    for (unsigned e = 0; e < ext_count; e++)
+        exts[e].raw_next = raw_in;
 }
 
 void bus_host_connect(int64_t now)
@@ -496,6 +562,8 @@ size_t bus_host_raw_room(void)
     uint64_t oldest = raw_in;
     for (unsigned i = 0; i < servo_count; i++)
         oldest = servos[i]->raw_next < oldest ? servos[i]->raw_next : oldest;
+    for (unsigned e = 0; e < ext_count; e++)
+        oldest = exts[e].raw_next < oldest ? exts[e].raw_next : oldest;
     return BUS_RAW_MAX - (size_t)(raw_in - oldest);
 }
 
@@ -529,6 +597,45 @@ size_t bus_output(uint8_t *out, size_t max)
     for (size_t i = 0; i < n; i++)
         out[i] = host_out[i];
     host_out_len = 0;
+    return n;
+}
+
+void bus_add_ext(int fd, uint32_t baud)
+{
+    if (ext_count == BUS_EXT_MAX)
+        die(2, "at most %u --uart", BUS_EXT_MAX);
+    exts[ext_count++] = (struct ext){.fd = fd, .baud = baud};
+}
+
+unsigned bus_ext_count(void)
+{
+    return ext_count;
+}
+
+int bus_ext_fd(unsigned e)
+{
+    return exts[e].fd;
+}
+
+void bus_ext_send(unsigned e, const uint8_t *in, size_t n, int64_t now)
+{
+    bus_advance(now);
+    struct ext *x = &exts[e];
+    int64_t t0 = now * 1000, end = wire_talker_end(&wire, ext_talker(e));
+    if (end > t0)
+        t0 = end;
+    for (size_t k = 0; k < n; k++)
+        wire_put(&wire, ext_talker(e), wire_bit_ns(t0, x->baud, 10u * (unsigned)k), x->baud,
+                 in[k]);
+}
+
+size_t bus_ext_output(unsigned e, uint8_t *out, size_t max)
+{
+    struct ext *x = &exts[e];
+    size_t n = x->out_len < max ? x->out_len : max;
+    memcpy(out, x->out, n);
+    memmove(x->out, x->out + n, x->out_len - n);
+    x->out_len -= n;
     return n;
 }
 

@@ -55,6 +55,8 @@
 #define BUS_LOOP_US 8u        /* the MCU's main-loop latency: a reply starts up to this late */
 #define BUS_CATCH_UP_US 200000 /* a bus this far behind real time jumps */
 #define BUS_RAW_MAX 65536u     /* power of two: a raw client's bytes not yet delivered */
+#define BUS_EXT_MAX 8u         /* --uart nodes */
+#define BUS_EXT_OUT 8192u      /* bytes an external UART heard, not yet written to it */
 
 struct sim_servo {
     struct node node;
@@ -73,8 +75,11 @@ struct sim_servo {
 
 /* Add a servo of board b: its state file first (with state_dir), then power-up; a new
  * servo (blank flash) gets arg_id the one way (node_set_id), in virtual time before the
- * real clock starts. Call before bus_start(). */
-void bus_add(uint8_t arg_id, const struct board *b, const char *state_dir);
+ * real clock starts. uid is its hal_uid(); with uid_names_file its state file's name
+ * carries the UID too (several servos of one ID and variant: state.h). Call before
+ * bus_start(). */
+void bus_add(uint8_t arg_id, const struct board *b, const uint8_t uid[HAL_UID_BYTES],
+             bool uid_names_file, const char *state_dir);
 
 /* --report-commits: from now on, each change of a servo's flash commit tokens (a commit
  * spent, a token back) is a line `servo-sim: ID N commit tokens T` on stderr, and each
@@ -128,5 +133,20 @@ size_t bus_output(uint8_t *out, size_t max);
 
 /* The end: every drop not reported yet is, then the servos go. */
 void bus_free(void);
+
+/* External UARTs (servo-sim --uart HOST:PORT[:BAUD], issue 27): a device behind a TCP
+ * byte stream, e.g. a QEMU-run arm image's USART1, as a node of the line. Each is a
+ * talker and a receiver at its fixed baud (default 9600): its bytes go on the line back
+ * to back from when they arrive, so they garble with whatever else is on it, and it
+ * hears the line (the servos' answers, an rfc2217 host's bytes) and a raw client's
+ * bytes, paced at its baud. Its own timing is its emulator's: what it sends reaches the
+ * line as soon as servo-sim reads it. Add before bus_start(). */
+void bus_add_ext(int fd, uint32_t baud);
+unsigned bus_ext_count(void);
+int bus_ext_fd(unsigned e);
+/* Bytes read from external UART e at now go on the line. */
+void bus_ext_send(unsigned e, const uint8_t *in, size_t n, int64_t now);
+/* What external UART e heard since the last call (to be written to its socket). */
+size_t bus_ext_output(unsigned e, uint8_t *out, size_t max);
 
 #endif

@@ -179,6 +179,36 @@ static void client_output(bool connected)
         out_put(heard, n);
 }
 
+/* External UARTs (bus.h bus_add_ext): what each sent onto the line, what it heard. */
+static void ext_io(const struct pollfd *pfd, int64_t now)
+{
+    uint8_t buf[4096];
+    for (unsigned e = 0; e < bus_ext_count(); e++) {
+        if (!(pfd[e].revents & (POLLIN | POLLHUP | POLLERR)))
+            continue;
+        ssize_t n = read(bus_ext_fd(e), buf, sizeof buf);
+        if (n == 0 || (n < 0 && errno != EAGAIN && errno != EINTR))
+            die(1, "--uart %u: the device closed its connection", e + 1u);
+        if (n > 0)
+            bus_ext_send(e, buf, (size_t)n, now);
+    }
+}
+
+static void ext_output(void)
+{
+    uint8_t buf[4096];
+    for (unsigned e = 0; e < bus_ext_count(); e++) {
+        size_t n;
+        while ((n = bus_ext_output(e, buf, sizeof buf)) > 0)
+            for (size_t at = 0; at < n;) {
+                ssize_t w = write(bus_ext_fd(e), buf + at, n - at);
+                if (w < 0 && errno != EINTR)
+                    die(1, "--uart %u: %s", e + 1u, strerror(errno));
+                at += w > 0 ? (size_t)w : 0u;
+            }
+    }
+}
+
 void client_serve(int lfd, const sigset_t *poll_mask, volatile sig_atomic_t *stop)
 {
     int client = -1;
@@ -186,10 +216,13 @@ void client_serve(int lfd, const sigset_t *poll_mask, volatile sig_atomic_t *sto
         int64_t now = bus_now();
         uint32_t wake = bus_next_wake(now);
         struct timespec ts = {0, (long)wake * 1000};
-        struct pollfd pfd[2] = {{lfd, POLLIN, 0}, {client, room_for_input() ? POLLIN : 0, 0}};
+        struct pollfd pfd[2u + BUS_EXT_MAX] = {{lfd, POLLIN, 0},
+                                               {client, room_for_input() ? POLLIN : 0, 0}};
         if (client >= 0 && out_len)
             pfd[1].events |= POLLOUT;
-        int r = ppoll(pfd, client >= 0 ? 2u : 1u, &ts, poll_mask);
+        for (unsigned e = 0; e < bus_ext_count(); e++)
+            pfd[2u + e] = (struct pollfd){bus_ext_fd(e), POLLIN, 0};
+        int r = ppoll(pfd, 2u + bus_ext_count(), &ts, poll_mask);
         if (r < 0 && errno != EINTR)
             die(1, "poll: %s", strerror(errno));
         if (*stop)
@@ -204,7 +237,10 @@ void client_serve(int lfd, const sigset_t *poll_mask, volatile sig_atomic_t *sto
             client_input(&client, now, incoming);
         if (incoming)
             client_accept(lfd, &client, now);
+        if (r > 0)
+            ext_io(&pfd[2], now);
         bus_advance(now);
+        ext_output();
         client_output(client >= 0);
         if (client >= 0 && !flush_out(client))
             client_close(&client, now);

@@ -6,13 +6,16 @@
  * cleanly. Exit status: 0 after a signal, 2 for a bad command line or a port that cannot
  * be listened on, 1 for a failure while running. */
 #include <arpa/inet.h>
+#include <netinet/tcp.h>
 #include <errno.h>
 #include <signal.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
 
 #include "args.h"
@@ -69,6 +72,25 @@ static void banner(const struct sockaddr_in *sa)
     fflush(stdout);
 }
 
+/* Connect to a --uart device (an emulator may still be starting: up to 10 s). */
+static int uart_connect(const struct sockaddr_in *sa, const char *text)
+{
+    for (int tries = 0; tries < 100; tries++) {
+        int fd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+        if (fd < 0)
+            die(1, "socket: %s", strerror(errno));
+        if (connect(fd, (const struct sockaddr *)sa, sizeof *sa) == 0) {
+            int one = 1;
+            setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+            return fd;
+        }
+        close(fd);
+        struct timespec ts = {0, 100000000L};
+        nanosleep(&ts, 0);
+    }
+    die(2, "--uart %s: cannot connect: %s", text, strerror(errno));
+}
+
 int main(int argc, char **argv)
 {
     static struct sim_args args;
@@ -78,8 +100,15 @@ int main(int argc, char **argv)
     int lfd = client_listen(&args.listen, args.listen_text);
     sigset_t poll_mask;
     signals_setup(&poll_mask);
-    for (unsigned i = 0; i < args.nservos; i++)
-        bus_add(args.servo[i].id, args.servo[i].board, args.state_dir);
+    for (unsigned i = 0; i < args.nservos; i++) {
+        const struct servo_arg *v = &args.servo[i];
+        bool shared = v->uid_given; /* one ID and variant twice: the files need the UID */
+        for (unsigned k = 0; k < args.nservos; k++)
+            shared |= k != i && args.servo[k].id == v->id && args.servo[k].board == v->board;
+        bus_add(v->id, v->board, v->uid, shared, args.state_dir);
+    }
+    for (unsigned u = 0; u < args.nuarts; u++)
+        bus_add_ext(uart_connect(&args.uart[u], args.uart_text[u]), args.uart_baud[u]);
     bus_start();
     if (args.report_commits)
         bus_report_commits();

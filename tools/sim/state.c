@@ -92,14 +92,17 @@ static void extend(struct state_file *f, size_t bytes)
 }
 
 void state_open(struct state_file *f, struct hal *hal, const char *dir, uint8_t id,
-                const char *variant)
+                const char *variant, const uint8_t *uid)
 {
     state_none(f, hal);
     size_t len = strlen(dir) + 64u;
     f->path = malloc(len);
     if (!f->path)
         die(1, "out of memory");
-    snprintf(f->path, len, "%s/servo-%u-%s.flash", dir, id, variant);
+    int at = snprintf(f->path, len, "%s/servo-%u-%s", dir, id, variant);
+    for (unsigned i = 0; uid && i < HAL_UID_BYTES; i++)
+        at += snprintf(f->path + at, len - (size_t)at, "%s%02x", i ? "" : "-", uid[i]);
+    snprintf(f->path + at, len - (size_t)at, ".flash");
     f->fd = open(f->path, O_RDWR | O_CREAT | O_CLOEXEC, 0644);
     if (f->fd < 0)
         die(2, "cannot open state file %s: %s", f->path, strerror(errno));

@@ -29,11 +29,12 @@ struct state_file {
 /* No file: the flash lives and dies with the process. */
 void state_none(struct state_file *f, struct hal *hal);
 
-/* Open (or create) DIR/servo-<id>-<variant>.flash and load it into hal's flash (before
+/* Open (or create) DIR/servo-<id>-<variant>.flash, or with a uid (12 bytes)
+ * DIR/servo-<id>-<variant>-<uid in hex>.flash, and load it into hal's flash (before
  * the servo powers up: the store reads it there). A new file starts erased. Exits with
  * status 2 on a file that is not a servo-sim flash image, or is in use. */
 void state_open(struct state_file *f, struct hal *hal, const char *dir, uint8_t id,
-                const char *variant);
+                const char *variant, const uint8_t *uid);
 
 /* Write every page that differs from the file (a programmer's direct write, e.g. the
  * factory image, is not a counted flash operation: call this after it). */

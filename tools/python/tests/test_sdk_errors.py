@@ -22,6 +22,7 @@ SENSIBLE = {
     "values": {ARM_ID: 16}, "data": b"\x10", "frame": P.instruction(ARM_ID, P.PING),
     "sent": P.instruction(ARM_ID, P.PING), "shape": lambda pkt: True,
     "e": BusTimeout("no answer", ARM_ID), "finds": [],
+    "expect": [ARM_ID], "uid": "ff" * 12, "k": 0, "prefix": 0,
     # for the foot, so that update() stops at the model check: nothing is installed
     "image": I.build(3000, 5, VARIANTS["foot"].model_number),
 }

@@ -24,7 +24,10 @@ def assert_usage_error(args, *words):
     (["--servo", "254:arm"], ["bad ID '254'", "0-253"]),
     (["--servo", "x:arm"], ["bad ID 'x'"]),
     (["--servo", "arm"], ["expected ID:VARIANT"]),
-    (["--servo", "3:arm", "--servo", "3:foot"], ["duplicate ID 3"]),
+    (["--servo", "3:arm:0102030405060708090a0b0c", "--servo", "4:foot:0102030405060708090a0b0c"],
+     ["duplicate UID", "3:arm", "4:foot"]),
+    (["--servo", "3:arm:01020304"], ["bad UID '01020304'", "24 hex digits"]),
+    (["--servo", "3:arm:0102030405060708090a0bzz"], ["bad UID"]),
     (["--bogus"], ["unknown option '--bogus'", "usage"]),
     (["--servo"], ["--servo needs a value"]),
 ])

@@ -17,7 +17,8 @@ ENDPOINTS = ["/api/move", "/api/stop", "/api/write", "/api/select", "/api/scan",
              "/api/speed", "/api/home", "/api/traj", "/api/setid", "/api/reset",
              "/api/clear", "/api/update?id=2", "/api/console", "/api/dashboard",
              "/api/scope", "/api/group", "/api/plan", "/api/config/save",
-             "/api/config/restore", "/api/config/diff"]
+             "/api/config/restore", "/api/config/diff", "/api/ids", "/api/separate",
+             "/api/adopt"]
 
 
 def scanned(t):

@@ -5,7 +5,7 @@ import math
 
 from .. import protocol as P
 from ..registers import BAUD_RATES
-from . import config, discover, firmware, monitor, moving, table
+from . import config, discover, firmware, ids, monitor, moving, table
 from .common import PROG
 
 
@@ -174,6 +174,7 @@ def build_parser():
     _table_commands(add)
     _motion_commands(add)
     _servo_commands(add)
+    ids.add_commands(add)
     from ..studio import add_command  # servoctl studio: the browser app (docs/studio.md)
     add_command(add)
     return p

@@ -17,6 +17,7 @@ from aiohttp import web
 from .. import BusTimeout, ServoBusError
 from .. import protocol as P
 from .actions import Actions
+from .idpanel import IdActions
 from .flows import do_scan
 from .lock import PortInUse, take_port
 from .entry import Entry
@@ -87,6 +88,7 @@ def _app(st, guard):
     app = web.Application(client_max_size=1 << 20, middlewares=[guard.middleware])
     Pages(st).add_routes(app)
     Actions(st).add_routes(app)
+    IdActions(st).add_routes(app)
     Moves(st).add_routes(app)
     Entry(st).add_routes(app)
     Panels(st).add_routes(app)

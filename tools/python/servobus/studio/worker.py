@@ -67,6 +67,7 @@ class Studio:
             "link_ok": True, "servos": [], "selected": None, "busy": None,
             "scan": {"running": False, "done": 0, "total": 0, "baud": None,
                      "notes": [], "warning": "", "message": ""},
+            "ids": {"rows": [], "shared": [], "message": ""},  # idpanel.py (issue 27)
             "update": {"running": False, "id": None, "done": 0, "total": 0, "bytes": 0,
                        "bytes_total": 0, "before": None, "after": None, "error": "",
                        "note": "", "file": "", "step": None},

@@ -173,6 +173,7 @@ function onState(st) {
     $("scan-baud").dataset.set = "1";
   }
   renderScan(st);
+  renderIds(st);
   if (S.lastUpdate && S.lastUpdate.running && !st.update.running)
     say(st.update.error ? st.update.error : "ID " + st.update.id + " now runs firmware version " +
         st.update.after + " (was " + st.update.before + ").", st.update.error ? "error" : "ok");
@@ -213,6 +214,19 @@ function renderScan(st) {
   }));
 }
 
+function renderIds(st) {
+  const ids = st.ids;
+  $("ids-message").textContent = ids.message;
+  for (const b of ["ids-list", "ids-separate", "adopt-go"]) $(b).disabled = !!st.busy;
+  $("ids-table").tBodies[0].replaceChildren(...ids.rows.map((r) =>
+    el("tr", { class: r.duplicate ? "duplicate" : "", "data-uid": r.uid },
+      el("td", {}, r.uid), el("td", {}, r.id), el("td", {}, r.variant),
+      el("td", {}, "0x" + r.model.toString(16).toUpperCase().padStart(4, "0")),
+      el("td", {}, r.baud),
+      el("td", { class: r.duplicate ? "health-bad" : "health-ok" },
+        r.duplicate ? "DUPLICATE ID" : "ok"))));
+}
+
 function renderFirmware(st) {
   const up = st.update;
   const s = servo(st.selected);
@@ -250,6 +264,26 @@ $("servo-pick").addEventListener("change", (e) => choose(e.target.value));
 $("scan-again").addEventListener("click", () => post("/api/scan", {}));
 $("scan-one").addEventListener("click", () => post("/api/scan", { baud: Number($("scan-baud").value) }));
 $("scan-all").addEventListener("click", () => post("/api/scan", { all: true }));
+
+$("ids-list").addEventListener("click", async () => {
+  const r = await post("/api/ids", {});
+  if (r) say("Listed " + r.count + " servo" + (r.count === 1 ? "" : "s") + " by UID.", "ok");
+});
+$("ids-separate").addEventListener("click", async () => {
+  const r = await post("/api/separate", {});
+  if (r) say(r.moves.length ? "Separated: " + r.moves.map((m) => "ID " + m[1] + " \u2192 " +
+    m[2]).join(", ") + "." : "Every ID was single: nothing to separate.", "ok");
+});
+$("adopt-go").addEventListener("click", async () => {
+  const text = $("adopt-expect").value.trim();
+  const parts = text ? text.split(/[\s,]+/).filter((x) => x) : [];
+  if (!parts.length || parts.some((x) => !/^\d+$/.test(x))) {
+    say("Give the expected IDs as whole numbers, e.g. 1, 2, 3, 4. Nothing was sent.", "error");
+    return;
+  }
+  const r = await post("/api/adopt", { expect: parts.map(Number) });
+  if (r) say("Adopted: UID " + r.uid + " is now ID " + r.id + ".", "ok");
+});
 
 // ---- control table ----------------------------------------------------------------
 

@@ -1,0 +1,177 @@
+"""Issue 27, no unplugging: every servo by its unique identity on servo-sim, duplicates
+and factory-fresh servos included (servobus/ids.py, the firmware's include/ident.h)."""
+
+import os
+import subprocess
+import sys
+
+import pytest
+
+from conftest import PYROOT
+from servobus import Bus, BusTimeout, ServoBusError
+from servobus import protocol as P
+from servobus.errors import DuplicateId
+from servobus.ids import ANSWER_BYTES, ENUMERATE, SUB, parse_uid, uid_text
+from servobus.registers import BAUD_RATES
+
+TEN_AT_ONE = ["1:foot"] * 10
+
+
+def servoctl(*args, env=None):
+    e = dict(os.environ, PYTHONPATH=PYROOT)
+    e.pop("SERVOBUS_PORT", None)
+    e.update(env or {})
+    p = subprocess.run([sys.executable, "-m", "servobus", *args], capture_output=True,
+                       text=True, env=e, timeout=120)
+    return p.returncode, p.stdout, p.stderr
+
+
+def answering(bus, ids):
+    """The IDs of ids that answer PING alone (an intact answer, no second servo)."""
+    return [i for i in ids if not bus.duplicate(i, tries=1, probes=("ping",))
+            and _pings(bus, i)]
+
+
+def _pings(bus, i):
+    try:
+        bus.ping(i)
+        return True
+    except ServoBusError:
+        return False
+
+
+def set_all_bauds(url, baud):
+    with Bus(url) as b:
+        b.send(P.BROADCAST, P.WRITE, bytes([4, BAUD_RATES.index(baud) + 1]))
+        b.pause(0.3)
+
+
+def test_ten_servos_at_id_1_fixed_by_servoctl_alone_and_kept_across_a_restart(
+        sim_factory, tmp_path):
+    state = tmp_path / "state"
+    sim = sim_factory(*TEN_AT_ONE, state_dir=state)
+    rc, out, err = servoctl("--port", sim.url, "ids")
+    assert rc == 1 and "share ID 1" in err, (rc, out, err)
+    assert out.count("DUPLICATE ID") == 10
+    rc, out, err = servoctl("--port", sim.url, "ids", "--fix")
+    assert rc == 0, (rc, out, err)
+    uids = {}
+    for line in out.split("now:")[1].splitlines()[2:]:
+        uid, sid = line.split()[:2]
+        uids[uid] = int(sid)
+    assert sorted(uids.values()) == list(range(1, 11))
+    # the lowest UID kept ID 1
+    assert uids[min(uids)] == 1
+    with Bus(sim.url) as bus:
+        assert answering(bus, range(1, 11)) == list(range(1, 11))
+    sim.stop()
+    sim2 = sim_factory(*TEN_AT_ONE, state_dir=state)  # the same nodes, their flash kept
+    with Bus(sim2.url) as bus:
+        again = {uid_text(i.uid): i.id for i in bus.enumerate()}
+        assert again == uids
+        assert answering(bus, range(1, 11)) == list(range(1, 11))
+
+
+@pytest.mark.parametrize("baud", [9600, 921600])
+def test_enumerate_finds_every_servo_whatever_collides(sim_factory, baud):
+    """At 9600 two answers in one slot superimpose bit for bit; at 921600 they garble
+    (servo-sim draws each answer's start a few microseconds apart): both end with every
+    servo, each once, with its variant, model and baud."""
+    servos = ["1:foot"] * 6 + ["1:arm"] * 3 + ["7:wrist", "200:finger"]
+    sim = sim_factory(*servos)
+    if baud != 9600:
+        set_all_bauds(sim.url, baud)
+    with Bus(sim.url, baud=baud) as bus:
+        found = bus.enumerate()
+        assert len(found) == len(servos)
+        assert len({i.uid for i in found}) == len(servos)
+        assert sorted((i.id, i.variant) for i in found) == sorted(
+            (int(s.split(":")[0]), s.split(":")[1]) for s in servos)
+        assert {i.baud for i in found} == {baud}
+        assert {i.model for i in found if i.variant == "arm"} == {20995}
+        assert 1 <= bus.enumerate_rounds <= 1 + 16 * 23 * (len(servos) - 1)
+        if baud == 9600:  # every collision superimposed: each round splits a group
+            assert bus.enumerate_rounds <= len(servos)
+
+
+def test_a_given_uid_is_what_the_servo_reports(sim_factory):
+    uid = "0102030405060708090a0b0c"
+    sim = sim_factory("5:arm:" + uid, "5:foot")
+    with Bus(sim.url) as bus:
+        me = bus.identify(uid)
+        assert (uid_text(me.uid), me.id, me.variant) == (uid, 5, "arm")
+        with pytest.raises(DuplicateId):
+            bus.identify(servo_id=5)  # two answer at ID 5
+        with pytest.raises(BusTimeout):
+            bus.identify("ffffffffffffffffffffffff")
+
+
+def test_set_id_by_uid_moves_only_that_servo_and_broadcast_is_silent(sim_factory):
+    a, b = "0102030405060708090a0b0c", "0102030405060708090a0b0d"
+    sim = sim_factory("1:arm:" + a, "1:arm:" + b)
+    with Bus(sim.url) as bus:
+        frame = P.instruction(P.BROADCAST, P.CUSTOM, bytes([SUB, 3]) + parse_uid(b) + b"\x09")
+        answers, garbled = bus.listen(1, frame, lambda pkt: True, ANSWER_BYTES)
+        assert not answers and not garbled  # none answers a broadcast SET ID
+        bus.pause(0.1)
+        assert bus.identify(b).id == 9 and bus.identify(a).id == 1
+        assert answering(bus, [1, 9]) == [1, 9]
+        got = bus.set_id_by_uid(a, 4)
+        assert got.id == 4 and answering(bus, [1, 4, 9]) == [4, 9]
+
+
+def test_enumerate_is_broadcast_only_and_a_servo_answers_nothing_else(sim_factory):
+    """ENUMERATE to one ID is ignored; bad lengths and prefix sizes are ignored; the
+    vendor's own CUSTOM subs are unchanged (a sub 0x11 without op: instruction error)."""
+    sim = sim_factory("1:arm")
+    with Bus(sim.url) as bus:
+        for frame in [P.instruction(1, P.CUSTOM, bytes([SUB, ENUMERATE, 0])),  # not broadcast
+                      P.instruction(P.BROADCAST, P.CUSTOM, bytes([SUB, ENUMERATE, 2])),
+                      P.instruction(P.BROADCAST, P.CUSTOM, bytes([SUB, ENUMERATE, 0, 0])),
+                      P.instruction(P.BROADCAST, P.CUSTOM, bytes([SUB, ENUMERATE, 24]) +
+                                    bytes(12)),
+                      P.instruction(P.BROADCAST, P.CUSTOM, bytes([SUB, 0x04, 0])),
+                      P.instruction(P.BROADCAST, P.CUSTOM, bytes([SUB, 0x02]))]:
+            answers, garbled = bus.listen(1, frame, lambda pkt: True, ANSWER_BYTES)
+            assert not answers and not garbled, frame.hex()
+        assert len(bus.enumerate()) == 1
+
+
+def test_adopt_gives_the_new_servo_the_missing_id_and_the_bus_baud(sim_factory, tmp_path):
+    env = {"SERVOBUS_STATE": str(tmp_path / "budget.json")}
+    sim = sim_factory("1:arm", "2:foot", "3:wrist", "9:arm")
+    rc, out, err = servoctl("--port", sim.url, "adopt", "--expect", "1,2,3,4", env=env)
+    assert rc == 0, (rc, out, err)
+    assert "adopted as ID 4" in out
+    with Bus(sim.url) as bus:
+        assert sorted(i.id for i in bus.enumerate()) == [1, 2, 3, 4]
+    rc, out, err = servoctl("--port", sim.url, "adopt", "--expect", "1,2,3,4", env=env)
+    assert rc == 1 and "none is silent" in err
+
+
+def test_adopt_beside_the_old_servo_on_id_1_only_when_known(sim_factory, tmp_path):
+    """ID 3 died, and its factory-fresh replacement sits at ID 1 beside the old ID 1:
+    only a UID remembered from an earlier `servoctl ids` on this port tells them apart."""
+    env = {"SERVOBUS_STATE": str(tmp_path / "budget.json")}
+    old, two = "1:arm:aa0000000000000000000001", "2:foot:aa0000000000000000000002"
+    sim = sim_factory(old, two, "3:arm:aa0000000000000000000003")
+    port = sim.port
+    assert servoctl("--port", sim.url, "ids", env=env)[0] == 0  # remembered
+    sim.stop()
+    sim = sim_factory(old, two, "1:arm:bb0000000000000000000009", port=port)
+    rc, out, err = servoctl("--port", sim.url, "adopt", "--expect", "1,2,3",
+                            env={"SERVOBUS_STATE": str(tmp_path / "other" / "b.json")})
+    assert rc == 1 and "ambiguous" in err, (rc, out, err)  # nothing remembered: refused
+    rc, out, err = servoctl("--port", sim.url, "adopt", "--expect", "1,2,3", env=env)
+    assert rc == 0 and "bb0000000000000000000009 adopted as ID 3" in out, (rc, out, err)
+    with Bus(sim.url) as bus:
+        assert bus.identify("aa0000000000000000000001").id == 1
+        assert answering(bus, [1, 2, 3]) == [1, 2, 3]
+
+
+def test_adopt_refuses_two_newcomers(sim_factory):
+    sim = sim_factory("1:arm", "2:foot", "8:arm", "9:arm")
+    rc, out, err = servoctl("--port", sim.url, "adopt", "--expect", "1,2,3")
+    assert rc == 1 and "there are 2" in err, (rc, out, err)
+    with Bus(sim.url) as bus:
+        assert sorted(i.id for i in bus.enumerate()) == [1, 2, 8, 9]  # nothing written
