@@ -89,3 +89,9 @@ def writes_to(tap, address, mark=0, servo_id=None):
     return [(t, raw[6:-1]) for t, raw in tap.packets(mark)
             if raw[4] == P.WRITE and raw[5] == address and
             (servo_id is None or raw[2] == servo_id)]
+
+
+# A studio whose start-up scan found n servos and is free again.
+def ready(t, n):
+    return t.api.wait(lambda st: len(st["servos"]) == n and not st["busy"] and
+                      st["selected"] is not None, what="the start-up scan")
