@@ -249,9 +249,9 @@ static void homing_happy_paths(void **state)
     (void)state;
     /* Zero side 1: switch 1 at 0, switch 2 at 420 degrees; the arm starts at 90. */
     home_arm();
-    assert_int_equal(homing_status_now(), HOMING_RUNNING);
+    assert_int_equal(homing_status_now(), HOMING_STATUS_RUNNING);
     run_ms(12000);
-    assert_int_equal(homing_status_now(), HOMING_DONE);
+    assert_int_equal(homing_status_now(), HOMING_STATUS_DONE);
     assert_int_equal(regs_get(&s.regs, REG_CW_LIMIT), 0);
     assert_int_equal(regs_get(&s.regs, REG_CCW_LIMIT), 420);
     assert_int_equal(s.motion.mode, MOTION_HOLD);
@@ -264,7 +264,7 @@ static void homing_happy_paths(void **state)
     assert_int_equal(s.regs.mem[REG_PHOTO_SWITCHES], 1);
     assert_int_equal(write8(REG_HOMING, 1), 0);
     run_ms(12000);
-    assert_int_equal(homing_status_now(), HOMING_DONE);
+    assert_int_equal(homing_status_now(), HOMING_STATUS_DONE);
     assert_int_equal(regs_get(&s.regs, REG_CCW_LIMIT), 420);
     /* Zero side 2: the mechanism's zero is at the physical positive end. */
     power_up(&board_arm);
@@ -276,7 +276,7 @@ static void homing_happy_paths(void **state)
     assert_int_equal(write8(REG_HOMING_ZERO_SIDE, 2), 0);
     assert_int_equal(write8(REG_HOMING, 1), 0);
     run_ms(12000);
-    assert_int_equal(homing_status_now(), HOMING_DONE);
+    assert_int_equal(homing_status_now(), HOMING_STATUS_DONE);
     assert_int_equal(regs_get(&s.regs, REG_CCW_LIMIT), 420);
     /* Moves now count up from the zero toward the end: goal 100 is 320 physical. */
     write16(REG_MOVING_SPEED, 90);
@@ -293,27 +293,27 @@ static void homing_failures(void **state)
     hal.photo_sim = false;
     hal.photo = 3;
     run_ms(100);
-    assert_int_equal(homing_status_now(), HOMING_FAILED);
+    assert_int_equal(homing_status_now(), HOMING_STATUS_FAILED);
     /* Switch 2 never found within the board's travel. */
     home_arm();
     hal.sw2_deg = 5000.0;
     run_ms(30000);
-    assert_int_equal(homing_status_now(), HOMING_FAILED);
+    assert_int_equal(homing_status_now(), HOMING_STATUS_FAILED);
     /* Stall while seeking. */
     home_arm();
     run_ms(300);
     hal.motor.blocked = true;
     run_ms(2000);
-    assert_int_equal(homing_status_now(), HOMING_FAILED);
+    assert_int_equal(homing_status_now(), HOMING_STATUS_FAILED);
     /* No switches on this board. */
     power_up(&board_foot);
     assert_int_equal(write8(REG_HOMING, 1), 0);
-    assert_int_equal(homing_status_now(), HOMING_FAILED);
+    assert_int_equal(homing_status_now(), HOMING_STATUS_FAILED);
     /* A failure leaves no reference: moves stay refused. */
     home_arm();
     hal.motor.blocked = true;
     run_ms(2000);
-    assert_int_equal(homing_status_now(), HOMING_FAILED);
+    assert_int_equal(homing_status_now(), HOMING_STATUS_FAILED);
     hal.motor.blocked = false;
     assert_int_equal(write8(REG_CLEAR_UNLOAD, 1), 0);
     assert_int_equal(write16(REG_GOAL_POSITION, 100), ERR_INSTRUCTION);
@@ -343,7 +343,7 @@ static void homing_aborts(void **state)
             default: break; /* heartbeat: no packet since power-up */
             }
             run_ms(abort_kind == 4 ? 600 : 5);
-            assert_int_equal(homing_status_now(), HOMING_FAILED);
+            assert_int_equal(homing_status_now(), HOMING_STATUS_FAILED);
             assert_int_not_equal(s.motion.mode, MOTION_HOME);
             assert_int_equal(write16(REG_GOAL_POSITION, 100), ERR_INSTRUCTION);
         }
