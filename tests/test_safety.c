@@ -285,7 +285,7 @@ static void homing_happy_paths(void **state)
     assert_in_range((uint32_t)(hal.motor.theta * 57.29577951308232 + 0.5), 319, 321);
 }
 
-static void homing_failures(void **state)
+static void homing_fails_on_both_switches_or_a_missing_switch(void **state)
 {
     (void)state;
     /* Both switches at once. */
@@ -320,7 +320,7 @@ static void homing_failures(void **state)
 }
 
 /* Aborts from each phase: back-off, seek, reverse. */
-static void homing_aborts(void **state)
+static void homing_aborted_in_any_phase_reads_failed_and_refuses_moves(void **state)
 {
     (void)state;
     static const uint32_t phase_ms[] = {20, 500, 3000};
@@ -389,8 +389,8 @@ int main(void)
         cmocka_unit_test(each_fault_in_each_mode),
         cmocka_unit_test(noise_does_not_trip),
         cmocka_unit_test(homing_happy_paths),
-        cmocka_unit_test(homing_failures),
-        cmocka_unit_test(homing_aborts),
+        cmocka_unit_test(homing_fails_on_both_switches_or_a_missing_switch),
+        cmocka_unit_test(homing_aborted_in_any_phase_reads_failed_and_refuses_moves),
         cmocka_unit_test(power_cycles_never_move),
     };
     return cmocka_run_group_tests(tests, 0, 0);
