@@ -399,6 +399,9 @@ void motion_init(struct servo *s)
     m->tick_us = hal_clock_us(s->hal);
     motion_coast(s); /* rule 1: the motor is off until a command asks for motion */
     regs_set(&s->regs, REG_GOAL_POSITION, regs_present_position(&s->regs));
+    /* Homing without switches never ends, and a move on the wrong sensor runs away: a
+     * port without the board's fittings gets a servo that answers but never moves. */
+    safety_unfit(&s->safety, (uint8_t)(s->board->fittings & ~hal_capabilities(s->hal)));
 }
 
 static struct sequence_frame seq_frame(const struct servo *s)

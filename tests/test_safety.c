@@ -382,10 +382,59 @@ static void power_cycles_never_move(void **state)
     }
 }
 
+/* ---- the port's fittings ---------------------------------------------------------- */
+
+/* Power up b on a port that reports its fittings less those in lack. */
+static void power_up_lacking(const struct board *b, uint8_t lack)
+{
+    hal_host_init(&hal);
+    hal_host_attach_board(&hal, b);
+    hal.capabilities &= (uint8_t)~lack;
+    hal.now_us = 1000;
+    servo_init(&s, b, &hal);
+    s.regs.mem[REG_HEARTBEAT_ENABLE] = 0;
+    assert_int_equal(write16(REG_MOVING_SPEED, 120), 0);
+}
+
+/* The port reports its fittings (hal_capabilities) and the core checks the board's
+ * against them at start: on a port without the foot's encoder or terminator the servo
+ * refuses every move with ERR bit 5 and keeps the motor off, and register 25 does not
+ * lift that; the arm on a port without photo switches refuses to home. A fitting
+ * the board does not need (the foot's switches, the pot) changes nothing. */
+static void a_port_without_the_boards_fittings_never_moves(void **state)
+{
+    (void)state;
+    static const uint8_t lack[] = {HAL_CAP_ENCODER, HAL_CAP_TERMINATOR};
+    for (size_t i = 0; i < sizeof lack; i++) {
+        power_up_lacking(&board_foot, lack[i]);
+        assert_int_equal(write16(REG_GOAL_POSITION, 100), ERR_INSTRUCTION);
+        assert_int_equal(write8(REG_CLEAR_UNLOAD, 1), 0);
+        assert_int_equal(write16(REG_GOAL_POSITION, 100), ERR_INSTRUCTION);
+        run_ms(200);
+        assert_true(torque_off());
+    }
+    power_up_lacking(&board_foot, HAL_CAP_PHOTO | HAL_CAP_POT);
+    assert_int_equal(write16(REG_GOAL_POSITION, 100), 0);
+    run_ms(200);
+    assert_false(torque_off());
+
+    power_up_lacking(&board_arm, HAL_CAP_PHOTO);
+    assert_int_equal(write8(REG_HOMING, 1), ERR_INSTRUCTION);
+    run_ms(20);
+    assert_int_not_equal(homing_status_now(), HOMING_STATUS_RUNNING);
+    assert_true(torque_off());
+    power_up_lacking(&board_arm, HAL_CAP_POT);
+    assert_int_equal(write8(REG_HOMING, 1), 0);
+    run_ms(20);
+    assert_int_equal(homing_status_now(), HOMING_STATUS_RUNNING);
+    assert_false(torque_off());
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(heartbeat_randomized),
+        cmocka_unit_test(a_port_without_the_boards_fittings_never_moves),
         cmocka_unit_test(each_fault_in_each_mode),
         cmocka_unit_test(noise_does_not_trip),
         cmocka_unit_test(homing_happy_paths),

@@ -55,12 +55,13 @@ struct hal {
     bool photo_sim;         /* switches follow the motor: */
     double sw1_deg, sw2_deg; /* switch 1 reads high beyond sw1 (away from sw2), 2 beyond sw2 */
     bool termination;
+    uint8_t capabilities;   /* HAL_CAP_* the port reports (hal_capabilities) */
     bool restart_requested; /* hal_restart() was called; the harness reboots */
     bool power_reset;       /* the last reboot was a power cycle, not a restart/watchdog */
     bool image_hung;        /* servo_power_on() started an image that hangs (below) */
-    uint32_t hung_since_us; /* ... since then: the watchdog resets it SERVO_WATCHDOG_US on */
     bool watchdog_started;
     uint32_t watchdog_feeds;
+    uint32_t hung_since_us; /* image_hung since: the watchdog resets it SERVO_WATCHDOG_US on */
     struct hal_tx_byte log[HAL_HOST_TX_LOG];
 };
 
