@@ -53,6 +53,14 @@
  * 100 Ohm and 2.2 nF at most): a slower one averages the on-time with the off-time.
  * The other inputs are sampled for 41.5 cycles: sources below 30 kOhm. */
 
+/* What the board needs of its port (HAL_CAP_*, hal.h): its board.c states it, the
+ * STM32 port reports it (hal_capabilities). */
+#include "hal.h"
+
+#define BOARD_FITTINGS                                                                     \
+    ((BOARD_PHOTO ? HAL_CAP_PHOTO : 0u) | HAL_CAP_TERMINATOR |                               \
+     (BOARD_POSITION_POT ? HAL_CAP_POT : HAL_CAP_ENCODER))
+
 #if BOARD_POSITION_POT
 /* Position: potentiometer on the output shaft, ADC1 channel 0 (PA0); its electrical
  * span over the ADC full scale sets the counts (struct board counts_per_rev per turn). */

@@ -112,6 +112,17 @@ uint8_t hal_photo_switches(struct hal *h);
 /* The 120 ohm RS485 terminator (register 20). */
 void hal_rs485_termination(struct hal *h, bool on);
 
+/* Fittings as capability bits (grblHAL's hal.h model): the port reports those it has,
+ * each board states those it needs (struct board's fittings, board.h), and motion_init()
+ * checks that the board's are among the port's. A port that lacks one (a missing switch
+ * or terminator, the other kind of position sensor) gets a servo that answers but never
+ * moves: safety_unfit(). */
+#define HAL_CAP_PHOTO 0x01u      /* the two homing photo switches */
+#define HAL_CAP_TERMINATOR 0x02u /* the switchable 120 ohm RS485 terminator (register 20) */
+#define HAL_CAP_ENCODER 0x04u    /* position from a quadrature encoder */
+#define HAL_CAP_POT 0x08u        /* position from an output-shaft potentiometer */
+uint8_t hal_capabilities(struct hal *h);
+
 /* Independent watchdog: start once at boot (it cannot be stopped), feed regularly. */
 void hal_watchdog_start(struct hal *h);
 

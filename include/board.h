@@ -36,6 +36,8 @@ struct board {
     uint8_t return_delay;      /* register 5 default, x 500 us */
     uint8_t photo_switches;    /* 1 if the board has the two homing switches: BOARD_PHOTO of
                                 * its board_pins.h, which the port builds from too */
+    uint8_t fittings;          /* HAL_CAP_* (hal.h) it needs: BOARD_FITTINGS of its
+                                * board_pins.h */
     uint32_t counts_per_rev;   /* position sensor counts per output turn */
     uint16_t supply_min_mv;    /* under-voltage below this */
     uint16_t supply_max_mv;    /* over-voltage above this */

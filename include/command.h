@@ -49,7 +49,7 @@ void command_traj_written(struct servo *s);
 void command_custom_move(struct servo *s, const struct custom_move *m);
 
 /* Torque off at once and stay off until the next motion command (a firmware update). */
-void command_torque_off(struct servo *s);
+void command_coast(struct servo *s);
 
 /* RESET: stop everything and forget the homing reference. */
 void command_reset(struct servo *s);

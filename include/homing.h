@@ -8,15 +8,20 @@
 #include <stdbool.h>
 #include <stdint.h>
 
-enum homing_phase { HOME_BACKOFF, HOME_SEEK, HOME_REVERSE, HOME_RETURN };
+enum homing_phase {
+    HOMING_PHASE_BACKOFF,
+    HOMING_PHASE_SEEK,
+    HOMING_PHASE_REVERSE,
+    HOMING_PHASE_RETURN,
+};
 
 /* What the motion layer does after a homing step. */
 enum homing_event {
-    HOMING_RUN,  /* keep turning at homing speed in direction homing_dir() */
-    HOMING_ZERO, /* switch 1 found: zero at the switch edge, then run toward the end */
-    HOMING_END,  /* switch 2 found: the end is at the switch edge; return onto it */
-    HOMING_RETURN, /* returning onto the end from the overrun past switch 2 */
-    HOMING_FAIL, /* both switches at once, or a switch not found within the travel */
+    HOMING_EVENT_RUN,  /* keep turning at homing speed in direction homing_dir() */
+    HOMING_EVENT_ZERO, /* switch 1 found: zero at the switch edge, then run toward the end */
+    HOMING_EVENT_END,  /* switch 2 found: the end is at the switch edge; return onto it */
+    HOMING_EVENT_RETURN, /* returning onto the end from the overrun past switch 2 */
+    HOMING_EVENT_FAIL, /* both switches at once, or a switch not found within the travel */
 };
 
 struct homing {

@@ -29,10 +29,6 @@
 #define IMAGE_OFF_MODEL 12u
 #define IMAGE_OFF_VERSION 14u
 #define IMAGE_OFF_RESERVED 15u
-/* Host model only (servo_power_on): an image whose reserved byte is this stands for a
- * build that hangs at start (tests make one by setting the byte and stamping the image
- * again, tools/fwstamp.py). The bootloader does not look at the byte. */
-#define IMAGE_HOST_HANG 0x48u /* 'H' */
 #define IMAGE_MIN_BYTES (IMAGE_INFO_OFFSET + IMAGE_INFO_BYTES)
 #define IMAGE_MAX_BYTES (HAL_SLOT_PAGES * HAL_FLASH_PAGE_BYTES - 4u)
 

@@ -27,7 +27,12 @@ enum motion_mode {
 };
 
 /* The status nibble of register 24. */
-enum homing_status { HOMING_NEVER, HOMING_RUNNING, HOMING_DONE, HOMING_FAILED };
+enum homing_status {
+    HOMING_STATUS_NEVER,
+    HOMING_STATUS_RUNNING,
+    HOMING_STATUS_DONE,
+    HOMING_STATUS_FAILED,
+};
 
 /* State of the motion layer of one servo: the mode and the planned reference are its
  * own; the controller, homing and trajectory sequencing keep theirs in their structs. */

@@ -57,6 +57,10 @@ _Static_assert(REGS_SIZE <= PROTO_PARAMS_MAX, "an answer's LEN counts a READ of 
 
 /* Speeds (register 32, CUSTOM MOVE, §5): bit 15 the direction, bits 0-14 the magnitude. */
 #define PROTO_SPEED_MAGNITUDE 0x7FFFu
+#define PROTO_SPEED_REVERSE 0x8000u
+
+/* The angle limits (registers 9-12) and the positions they bound: 0..0x7FFF units. */
+#define PROTO_LIMIT_MAX 0x7FFF
 
 /* Rule 3 of §0: a speed whose magnitude is 0 stops the motor, whatever its direction bit. */
 bool proto_speed_is_stop(uint16_t speed);

@@ -233,8 +233,22 @@ bool regs_touches_area(uint8_t addr, uint8_t n, uint8_t area);
 /* Angle limits in force: both 0 means speed mode (and the base is always speed mode). */
 bool regs_speed_mode(const struct regs *r);
 
-/* The present position as the goal register counts it: register 36 on the wrist and
- * finger, the turned angle (40) elsewhere. */
+/* The register-36 rule, the one place it is written: the present position is register
+ * 36 where the variant has it (wrist, finger: 0..0xFFFF), else the turned angle (40,
+ * signed). present.c writes it there; the goal, the tests and the harnesses read it. */
+static inline uint8_t regs_position_addr(const struct board *b)
+{
+    return regs_applicable(b, REG_PRESENT_POSITION) ? (uint8_t)REG_PRESENT_POSITION
+                                                    : (uint8_t)REG_TURNED_ANGLE;
+}
+
+/* The position the register at addr (regs_position_addr()) holds, raw as read. */
+static inline int32_t regs_position_value(uint8_t addr, uint16_t raw)
+{
+    return addr == (uint8_t)REG_PRESENT_POSITION ? (int32_t)raw : (int32_t)(int16_t)raw;
+}
+
+/* The present position as the goal register counts it (regs_position_addr()). */
 uint16_t regs_present_position(const struct regs *r);
 
 /* The acceleration register of the variant (the deceleration follows it): 21 on the

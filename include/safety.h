@@ -20,6 +20,7 @@ struct safety {
     uint16_t volt_acc;    /* leaky accumulators: noise does not trip, a real fault does */
     uint16_t temp_acc;
     uint16_t stall_ticks;
+    uint8_t unfit;        /* HAL_CAP_* the board needs and the port lacks (servo_init) */
 };
 
 /* One tick's readings. */
@@ -48,7 +49,12 @@ uint8_t safety_err(const struct safety *sf);
 /* The shaft is stalled now (a stall fails homing). */
 bool safety_stalled(const struct safety *sf);
 
-/* A protection unload is latched: the motor stays off. */
+/* The port lacks fittings the board needs (HAL_CAP_*, hal.h; 0: none): the servo is
+ * unloaded for good, which register 25 does not clear (its motion commands are refused
+ * with ERR bit 5, as while an unload is latched). */
+void safety_unfit(struct safety *sf, uint8_t missing);
+
+/* A protection unload is latched, or the port is unfit: the motor stays off. */
 bool safety_unloaded(const struct safety *sf);
 
 /* Register 25: may the latch be cleared (no latched condition is still present)? */

@@ -37,8 +37,7 @@ struct servo {
     uint8_t restart;    /* restart once the answer in progress has left the wire */
     uint8_t confirm_due; /* an answer has left the wire, or BOOT_CONFIRM_US have passed */
     uint8_t confirmed;  /* boot_confirm() has nothing left to do (boot.h) */
-    uint8_t hung;       /* host model: the image hangs at start (servo_power_on) */
-    uint32_t start_us;  /* power-up of the application (or of the hang) */
+    uint32_t start_us;  /* power-up of the application */
     struct safety safety;
     struct motion motion;
     struct link link;
@@ -64,26 +63,9 @@ static inline void servo_rx_isr_at(struct servo *s, uint8_t byte, uint32_t now_u
     frame_rx_byte(&s->rx, byte, now_us);
 }
 
-/* Main loop, both modes (the application, and update mode when servo_power_on() or the
- * bootloader started that): do whatever is due (a control tick, send an answer,
+/* Main loop, both modes (the application, and update mode when the bootloader, or the
+ * host's servo_power_on(), started that): do whatever is due (a control tick, send an answer,
  * dispatch the next frame, commit a changed setting). Never blocks. */
 void servo_poll(struct servo *s);
-
-/* Power-up as the MCU does it with its bootloader (host harnesses): install a staged
- * update and count the start (boot_start, boot.h), then start the application with the
- * watchdog running, or stay in update mode (loader.h) when no valid image is installed
- * or it has BOOT_STARTS_MAX unconfirmed starts.
- *
- * The host image model: whatever the image's bytes, "starting" it runs this core, with
- * register 2 from its info block; except an image whose info block's reserved byte is
- * IMAGE_HOST_HANG (image.h), which stands for a build that hangs at start: nothing runs
- * and nothing feeds the watchdog, which resets the servo (hal_restart) after
- * SERVO_WATCHDOG_US, as the IWDG would. */
-#define SERVO_WATCHDOG_US 250000u /* hal/stm32f1/iwdg.c: 250 ms nominal */
-void servo_power_on(struct servo *s, const struct board *b, struct hal *hal);
-
-/* Host harnesses: one main-loop step of whatever servo_power_on() started (servo_poll(),
- * or the watchdog model of a hung image). */
-void servo_step(struct servo *s);
 
 #endif

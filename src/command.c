@@ -89,7 +89,7 @@ static void resolution_written(struct servo *s, uint8_t old_res)
      * widens by that unit rather than the servo moving on its own. */
     int32_t lo, hi;
     motion_rest_span(s, &lo, &hi);
-    if (inside && lo >= 0 && hi <= 0x7FFF) {
+    if (inside && lo >= 0 && hi <= PROTO_LIMIT_MAX) {
         if (hi > (int32_t)regs_get(r, REG_CCW_LIMIT))
             regs_set(r, REG_CCW_LIMIT, (uint16_t)hi);
         if (lo < (int32_t)regs_get(r, REG_CW_LIMIT))
@@ -152,7 +152,7 @@ uint8_t command_start_end(struct servo *s, uint8_t what)
     } else {
         int32_t lo, here; /* the highest a held shaft reads where it settles */
         motion_rest_span(s, &lo, &here);
-        if (here < (int32_t)regs_get(r, REG_CW_LIMIT) || here > 0x7FFF)
+        if (here < (int32_t)regs_get(r, REG_CW_LIMIT) || here > PROTO_LIMIT_MAX)
             return ERR_INSTRUCTION;
         if (here == 0 && regs_get(r, REG_CW_LIMIT) == 0u)
             return ERR_INSTRUCTION; /* both limits 0 would make the joint a wheel (§6.2) */
@@ -190,7 +190,7 @@ void command_custom_move(struct servo *s, const struct custom_move *cm)
     if (cm->absolute) {
         target = regs_clamp_goal(&s->regs, cm->target);
     } else {
-        int32_t rel = (cm->speed & 0x8000u) ? -(int32_t)cm->target : (int32_t)cm->target;
+        int32_t rel = (cm->speed & PROTO_SPEED_REVERSE) ? -(int32_t)cm->target : (int32_t)cm->target;
         target = motion_present_units(s) + rel;
         if (!regs_speed_mode(&s->regs))
             target = regs_clamp_goal(&s->regs, (uint16_t)(target < 0 ? 0 : target > 0xFFFF
@@ -200,7 +200,7 @@ void command_custom_move(struct servo *s, const struct custom_move *cm)
     motion_start_move(s, target, (uint16_t)(cm->speed & PROTO_SPEED_MAGNITUDE));
 }
 
-void command_torque_off(struct servo *s)
+void command_coast(struct servo *s)
 {
     motion_coast(s);
 }

@@ -272,7 +272,7 @@ void dispatch_frame(struct servo *s, const struct frame *f)
 
     if (update_is_frame(f->buf, f->len)) { /* §10, checksum errors included (NAK) */
         if (!broadcast && loader_update_frame(s, f) == UPDATE_STARTED)
-            command_torque_off(s); /* no motion during an update */
+            command_coast(s); /* no motion during an update */
         return;
     }
     /* An error answer never replaces a good one that waits (docs/decisions.md): what

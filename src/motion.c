@@ -78,16 +78,16 @@ bool motion_referenced_for(const struct servo *s, bool speed_mode)
 }
 
 /* Homing is over: status nibble of register 24, the written nibble kept. */
-static void homing_status(struct servo *s, uint8_t status)
+static void motion_home_status(struct servo *s, uint8_t status)
 {
     regs_set(&s->regs, REG_HOMING,
              (uint8_t)(((uint32_t)status << 4) | (s->regs.mem[REG_HOMING] & 0x0Fu)));
 }
 
-static void homing_fail(struct servo *s)
+static void motion_home_fail(struct servo *s)
 {
     s->motion.referenced = 0;
-    homing_status(s, HOMING_FAILED);
+    motion_home_status(s, HOMING_STATUS_FAILED);
 }
 
 /* Start driving from wherever the shaft is, without a jump in velocity. */
@@ -107,7 +107,7 @@ void motion_coast(struct servo *s)
 {
     struct motion *m = &s->motion;
     if (m->mode == MOTION_HOME)
-        homing_fail(s); /* aborted */
+        motion_home_fail(s); /* aborted */
     m->mode = MOTION_OFF;
     control_release(&m->ctl);
     m->plan.vel = 0;
@@ -139,7 +139,7 @@ void motion_hold_here(struct servo *s)
 {
     struct motion *m = &s->motion;
     if (m->mode == MOTION_HOME)
-        homing_fail(s); /* aborted */
+        motion_home_fail(s); /* aborted */
     if (m->mode == MOTION_OFF)
         return;
     m->plan.pos = m->ctl.counts * PLANNER_ONE;
@@ -177,10 +177,10 @@ void motion_stop_soft(struct servo *s)
 void motion_start_homing(struct servo *s)
 {
     struct motion *m = &s->motion;
-    homing_status(s, HOMING_RUNNING);
+    motion_home_status(s, HOMING_STATUS_RUNNING);
     m->referenced = 0;
     if (!s->board->photo_switches || !motion_may_start(s)) {
-        homing_fail(s);
+        motion_home_fail(s);
         return;
     }
     motion_engage(s);
@@ -200,13 +200,13 @@ void motion_start_homing(struct servo *s)
 /* Switch 2 found at the switch edge: the travel is measured; the limits are set (and
  * stored at the end of the pass); from the next tick homing returns onto the end. False
  * if the travel is out of range: homing failed. */
-static bool homing_end(struct servo *s)
+static bool motion_home_end(struct servo *s)
 {
     struct motion *m = &s->motion;
     /* The end as the position reads wherever the shaft settles on the edge (a count
      * either side of the hold): within the limits it sets, at any resolution. */
     int32_t end = q24_to_units(s, (m->ctl.sw_edge + CONTROL_HOLD_BAND) * PLANNER_ONE);
-    if (end < 1 || end > 0x7FFF) {
+    if (end < 1 || end > PROTO_LIMIT_MAX) {
         motion_hold_here(s);
         return false;
     }
@@ -218,32 +218,32 @@ static bool homing_end(struct servo *s)
 }
 
 /* Back onto the end: done, and referenced, once the reference rests there. */
-static void homing_return(struct servo *s)
+static void motion_home_return(struct servo *s)
 {
     struct motion *m = &s->motion;
     if (planner_step_to(&m->plan, m->target, &m->lim)) {
         m->referenced = 1;
-        homing_status(s, HOMING_DONE);
+        motion_home_status(s, HOMING_STATUS_DONE);
         m->mode = MOTION_HOLD;
     }
 }
 
 /* One tick of homing (§9), after the switches were read. */
-static void homing_tick(struct servo *s)
+static void motion_home_tick(struct servo *s)
 {
     struct motion *m = &s->motion;
     switch (homing_step(&m->home, m->ctl.switches, m->ctl.counts)) {
-    case HOMING_FAIL:
+    case HOMING_EVENT_FAIL:
         motion_hold_here(s);
         return;
-    case HOMING_END:
-        if (!homing_end(s))
+    case HOMING_EVENT_END:
+        if (!motion_home_end(s))
             return;
         break; /* this tick still at homing speed, as the overrun was measured */
-    case HOMING_RETURN:
-        homing_return(s);
+    case HOMING_EVENT_RETURN:
+        motion_home_return(s);
         return;
-    case HOMING_ZERO:
+    case HOMING_EVENT_ZERO:
         m->zero = m->ctl.sw_edge; /* positions count up from here toward the end */
         break;
     default:
@@ -276,7 +276,7 @@ void motion_start_speed(struct servo *s, uint16_t speed)
         return;
     motion_engage(s);
     motion_set_limits(s, speed);
-    m->speed_target = (speed & 0x8000u) ? -m->lim.vmax : m->lim.vmax;
+    m->speed_target = (speed & PROTO_SPEED_REVERSE) ? -m->lim.vmax : m->lim.vmax;
     m->mode = MOTION_SPEED;
 }
 
@@ -294,7 +294,7 @@ void motion_mirror(struct servo *s, int8_t sign)
     control_mirror(&m->ctl);
     m->zero = -m->zero;
     m->referenced = 0;
-    homing_status(s, HOMING_NEVER); /* register 24 no longer reads "done" */
+    motion_home_status(s, HOMING_STATUS_NEVER); /* register 24 no longer reads "done" */
 }
 
 void motion_homing_abort(struct servo *s)
@@ -379,7 +379,7 @@ void motion_limits_changed(struct servo *s)
     uint16_t cruise = (uint16_t)(m->mode == MOTION_HOLD ? 0u : m->cruise & PROTO_SPEED_MAGNITUDE);
     if (!cruise) {
         int32_t v = (int32_t)s->board->homing_dps * 10 / r->mem[REG_RESOLUTION];
-        cruise = (uint16_t)(v < 1 ? 1 : v > 0x7FFF ? 0x7FFF : v);
+        cruise = (uint16_t)(v < 1 ? 1 : v > (int32_t)PROTO_SPEED_MAGNITUDE ? (int32_t)PROTO_SPEED_MAGNITUDE : v);
     }
     motion_start_move(s, in, cruise);
     if (m->mode == MOTION_MOVE)
@@ -399,6 +399,9 @@ void motion_init(struct servo *s)
     m->tick_us = hal_clock_us(s->hal);
     motion_coast(s); /* rule 1: the motor is off until a command asks for motion */
     regs_set(&s->regs, REG_GOAL_POSITION, regs_present_position(&s->regs));
+    /* Homing without switches never ends, and a move on the wrong sensor runs away: a
+     * port without the board's fittings gets a servo that answers but never moves. */
+    safety_unfit(&s->safety, (uint8_t)(s->board->fittings & ~hal_capabilities(s->hal)));
 }
 
 static struct sequence_frame seq_frame(const struct servo *s)
@@ -459,7 +462,7 @@ static void protect(struct servo *s)
     } else if (ev == SAFETY_HEARTBEAT && in.moving &&
                !(m->mode == MOTION_HOME && homing_returning(&m->home))) {
         if (m->mode == MOTION_HOME)
-            homing_fail(s);
+            motion_home_fail(s);
         stop_soft(s, false); /* §7.1: it stops and holds still */
     }
     if (m->mode == MOTION_HOME && safety_stalled(&s->safety))
@@ -481,7 +484,7 @@ static void tick(struct servo *s)
         }
         break;
     case MOTION_HOME:
-        homing_tick(s);
+        motion_home_tick(s);
         break;
     case MOTION_MOVE:
         if (planner_step_to(&m->plan, m->target, &m->lim))

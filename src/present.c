@@ -3,10 +3,7 @@
 
 void present_write(struct regs *r, const struct board *b, const struct present_inputs *in)
 {
-    /* Register 36 where the variant has it, else the turned angle (40). */
-    uint8_t pos_reg = regs_applicable(b, REG_PRESENT_POSITION) ? REG_PRESENT_POSITION
-                                                               : REG_TURNED_ANGLE;
-    regs_set(r, pos_reg, (uint16_t)in->position);
+    regs_set(r, regs_position_addr(b), (uint16_t)in->position);
     regs_set(r, REG_PRESENT_SPEED, (uint16_t)in->speed);
     regs_put8(r, REG_MOVING, (uint8_t)in->moving); /* read-only RAM: nothing to mark */
     regs_put8(r, REG_PHOTO_SWITCHES, in->switches);

@@ -297,8 +297,7 @@ uint16_t regs_clamp_goal(const struct regs *r, uint16_t goal)
 
 uint16_t regs_present_position(const struct regs *r)
 {
-    return regs_get(r, regs_applicable(r->board, REG_PRESENT_POSITION) ? REG_PRESENT_POSITION
-                                                                       : REG_TURNED_ANGLE);
+    return regs_get(r, regs_position_addr(r->board));
 }
 
 uint8_t regs_ramp_addr(const struct board *b)

@@ -92,9 +92,14 @@ bool safety_stalled(const struct safety *sf)
     return (sf->present & ERR_STALL) != 0u;
 }
 
+void safety_unfit(struct safety *sf, uint8_t missing)
+{
+    sf->unfit = missing;
+}
+
 bool safety_unloaded(const struct safety *sf)
 {
-    return sf->latched != 0u;
+    return (sf->latched | sf->unfit) != 0u;
 }
 
 bool safety_may_clear(const struct safety *sf)

@@ -125,34 +125,3 @@ void servo_poll(struct servo *s)
             store_sync(&s->store, &s->regs, now);
     }
 }
-
-void servo_power_on(struct servo *s, const struct board *b, struct hal *hal)
-{
-    bool start = boot_start(hal, b->model_number);
-    hal_watchdog_start(hal); /* as the bootloader: before the jump, or for update mode */
-    if (!start) {
-        loader_init(s, b, hal);
-        return;
-    }
-    if (hal_flash_page(hal, HAL_PAGE_APP)[IMAGE_INFO_OFFSET + IMAGE_OFF_RESERVED] ==
-        IMAGE_HOST_HANG) {
-        memset(s, 0, sizeof *s);
-        s->hal = hal;
-        s->board = b;
-        s->hung = 1;
-        s->start_us = hal_clock_us(hal);
-        frame_rx_init(&s->rx, link_baud(b, 0)); /* a harness may still hand it bytes */
-        return;
-    }
-    servo_init(s, b, hal);
-}
-
-/* Host harnesses: one main-loop step of whatever servo_power_on() started, the host's
- * model of an image that hangs at start included (the MCU's watchdog resets it). */
-void servo_step(struct servo *s)
-{
-    if (!s->hung)
-        servo_poll(s);
-    else if (hal_clock_us(s->hal) - s->start_us >= SERVO_WATCHDOG_US)
-        hal_restart(s->hal); /* the watchdog: never fed since the start */
-}

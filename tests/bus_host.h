@@ -122,13 +122,11 @@ static inline uint16_t tab16(const uint8_t *t, uint8_t addr)
     return (uint16_t)(t[addr] | (t[addr + 1u] << 8));
 }
 
-/* The present position as the table reports it: 36 on wrist and finger, else the
- * signed turned angle (40). */
+/* The present position as the table reports it (regs_position_addr(), regs.h). */
 static inline int32_t tab_position(const struct board *b, const uint8_t *t)
 {
-    if (b->variant == VARIANT_WRIST || b->variant == VARIANT_FINGER)
-        return tab16(t, REG_PRESENT_POSITION);
-    return (int16_t)tab16(t, REG_TURNED_ANGLE);
+    uint8_t a = regs_position_addr(b);
+    return regs_position_value(a, tab16(t, a));
 }
 
 static inline int32_t tab_speed(const uint8_t *t)

@@ -32,7 +32,6 @@ static uint8_t factory[REGS_SIZE];
 static uint64_t rng = 0x9E3779B97F4A7C15u;
 static uint64_t sent[K_KINDS], escaped[K_KINDS];
 static uint64_t failures;
-static int32_t travel_min, travel_max; /* position units, the factory CW..CCW */
 
 static uint32_t rnd(void)
 {
@@ -53,9 +52,12 @@ static void check_state(void)
     const struct servo *s = &servo;
     CHECK(identity_unchanged(s, factory));
     CHECK(regs_first_invalid(&s->regs) == REGS_SIZE);
-    /* The shaft within the travel (one position unit of tolerance for the plant). */
-    int32_t pos = (int16_t)regs_get(&s->regs, REG_PRESENT_POSITION);
-    CHECK(pos >= travel_min - 1 && pos <= travel_max + 1);
+    /* No check of the shaft's position here (an open question, issue 28's notes): it
+     * read register 36, which the foot does not have (always 0: it could not fail). Read
+     * on the plant it fails: the shaft ends up past the limits in force (limits are
+     * rewritten at random while it stands elsewhere) and past the foot's 360 degrees
+     * (400 seen, speed mode never set); whether that is the commands' doing or a fault
+     * is not yet known, so this test does not claim it. */
 }
 
 static void put16(uint8_t *p, uint16_t v)
@@ -169,8 +171,6 @@ int main(int argc, char **argv)
     servo.regs.mem[REG_RETURN_DELAY] = 0;
     link_latch(&servo);
     memcpy(factory, servo.regs.mem, sizeof factory);
-    travel_min = regs_get(&servo.regs, REG_CW_LIMIT);
-    travel_max = regs_get(&servo.regs, REG_CCW_LIMIT);
     uint64_t settings_hit = 0;
 
     uint8_t pkt[32], bad[40];
@@ -256,8 +256,7 @@ int main(int argc, char **argv)
     printf("8-bit sum on random errors: 3.9e-03 (1/256); ID/baud/delay put back %" PRIu64
            " times; the shaft turned %.0f degrees in all\n", settings_hit,
            hal.motor.travel * 57.29577951308232);
-    printf("checks after every packet (registers in range, CW <= CCW, identity unchanged, "
-           "shaft within %d..%d): %s\n", (int)travel_min, (int)travel_max,
-           failures ? "FAILED" : "all held");
+    printf("checks after every packet (registers in range, CW <= CCW, identity unchanged): "
+           "%s\n", failures ? "FAILED" : "all held");
     return failures ? 1 : 0;
 }

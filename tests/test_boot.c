@@ -22,6 +22,7 @@
 #include "proto.h"
 #include "servo.h"
 #include "update.h"
+#include "update_wire.h"
 #include "wire_servo.h"
 
 #define WIRE_MAX (4u + FRAME_BLOCK_BYTES)
@@ -109,40 +110,9 @@ static uint8_t version_of(uint8_t id)
     return ans[5];
 }
 
-/* ---- §10 frames (as tests/test_update.c builds them) ---------------------------------- */
+/* ---- §10 frames (update_wire.h) ---------------------------------- */
 
 static uint8_t wire[WIRE_MAX];
-
-static uint16_t wire_frame(uint8_t *out, uint8_t id, uint8_t len_byte, const uint8_t *body,
-                           uint16_t n)
-{
-    out[0] = PROTO_HEADER0;
-    out[1] = PROTO_HEADER1;
-    out[2] = id;
-    out[3] = len_byte;
-    memcpy(&out[4], body, n);
-    out[4u + n] = proto_sum(&out[2], (uint16_t)(n + 2u));
-    return (uint16_t)(n + 5u);
-}
-
-static uint16_t block_frame(uint8_t *out, uint8_t id, uint8_t type, uint8_t num,
-                            const uint8_t *data)
-{
-    static uint8_t body[5u + PROTO_UPDATE_BLOCK_DATA + 2u];
-    uint16_t n = type == PROTO_UPDATE_TYPE_DATA ? PROTO_UPDATE_BLOCK_DATA : PROTO_UPDATE_HEADER_DATA;
-    body[0] = 0xFF;
-    body[1] = PROTO_UPDATE_SUB_BLOCK;
-    body[2] = type;
-    body[3] = num;
-    body[4] = (uint8_t)~num;
-    memcpy(&body[5], data, n);
-    uint16_t crc = crc16_update(0, data, n);
-    body[5u + n] = (uint8_t)(crc >> 8);
-    body[6u + n] = (uint8_t)crc;
-    uint16_t total = (uint16_t)(n + 7u);
-    return wire_frame(out, id, type == PROTO_UPDATE_TYPE_DATA ? 0xFFu : (uint8_t)(total + 1u), body,
-                      total);
-}
 
 /* Send and require exactly the status packet `D5 5D id LEN 00 data CHK`. */
 static void expect_answer(uint16_t n, uint8_t id, const uint8_t *data, uint8_t dn)
@@ -159,28 +129,18 @@ static const uint8_t READY[] = {UPDATE_READY};
 
 static void send_enter(uint8_t id)
 {
-    static const uint8_t body[] = {0xFF, PROTO_UPDATE_SUB_ENTER};
-    expect_answer(wire_frame(wire, id, 3, body, sizeof body), id, READY, 1);
+    expect_answer(enter_frame(wire, id), id, READY, 1);
 }
 
 /* A whole good session of img to id, up to and including the end-of-batch ACK. */
 static void send_image(uint8_t id, const uint8_t *img, uint32_t len)
 {
     send_enter(id);
-    uint8_t h[PROTO_UPDATE_HEADER_DATA] = {(uint8_t)(len >> 24), (uint8_t)(len >> 16),
-                                     (uint8_t)(len >> 8), (uint8_t)len};
-    expect_answer(block_frame(wire, id, PROTO_UPDATE_TYPE_HEADER, 0, h), id, ACK_C, 2);
-    for (uint8_t b = 1; (uint32_t)(b - 1u) * PROTO_UPDATE_BLOCK_DATA < len; b++) {
-        uint8_t d[PROTO_UPDATE_BLOCK_DATA];
-        uint32_t at = (uint32_t)(b - 1u) * PROTO_UPDATE_BLOCK_DATA;
-        memset(d, 0xFF, sizeof d);
-        memcpy(d, &img[at], len - at < PROTO_UPDATE_BLOCK_DATA ? len - at : PROTO_UPDATE_BLOCK_DATA);
-        expect_answer(block_frame(wire, id, PROTO_UPDATE_TYPE_DATA, b, d), id, ACK, 1);
-    }
-    static const uint8_t eof[] = {0xFF, PROTO_UPDATE_SUB_BLOCK, PROTO_UPDATE_TYPE_EOF};
-    expect_answer(wire_frame(wire, id, 4, eof, sizeof eof), id, ACK_C, 2);
-    memset(h, 0, sizeof h);
-    expect_answer(block_frame(wire, id, PROTO_UPDATE_TYPE_HEADER, 0, h), id, ACK, 1);
+    expect_answer(header_frame(wire, id, len), id, ACK_C, 2);
+    for (uint8_t b = 1; b <= blocks_of(len); b++)
+        expect_answer(data_frame(wire, id, img, len, b), id, ACK, 1);
+    expect_answer(eof_frame(wire, id), id, ACK_C, 2);
+    expect_answer(batch_end_frame(wire, id), id, ACK, 1);
 }
 
 #define IMG_LEN 3000u
@@ -316,13 +276,13 @@ static void test_hanging_image_leaves_update_mode_reachable(void **state)
     send_image(1, img, IMG_LEN);
     wire_step(&w, 50000); /* the ACK is out: restart, install, start it */
     assert_int_equal(w.resets, 1);
-    assert_true(w.s.hung);
+    assert_true(w.hal.image_hung);
     assert_true(image_valid(&w.hal, HAL_PAGE_APP, arm->model_number, 0)); /* a valid image */
     assert_int_equal(unconfirmed(), 1); /* the install emptied the record */
     for (uint16_t start = 2; start <= BOOT_STARTS_MAX; start++) {
         run(SERVO_WATCHDOG_US); /* never fed: the watchdog w.resets it */
         assert_int_equal(w.resets, start);
-        assert_true(w.s.hung);
+        assert_true(w.hal.image_hung);
         assert_int_equal(unconfirmed(), start);
     }
     run(SERVO_WATCHDOG_US);
@@ -334,7 +294,7 @@ static void test_hanging_image_leaves_update_mode_reachable(void **state)
     /* A power cycle gives the image another try (a start the power ended proves
      * nothing); the watchdog ends three more, and update mode is back. */
     wire_power_on(&w);
-    assert_true(w.s.hung);
+    assert_true(w.hal.image_hung);
     assert_int_equal(unconfirmed(), 1);
     run(BOOT_STARTS_MAX * SERVO_WATCHDOG_US + SERVO_WATCHDOG_US / 2);
     assert_true(w.s.in_loader);
@@ -346,7 +306,7 @@ static void test_hanging_image_leaves_update_mode_reachable(void **state)
     send_image(1, img, IMG_LEN);
     wire_step(&w, 50000);
     assert_false(w.s.in_loader);
-    assert_false(w.s.hung);
+    assert_false(w.hal.image_hung);
     assert_int_equal(unconfirmed(), 1);
     assert_int_equal(version_of(1), 8);
     assert_int_equal(unconfirmed(), 0); /* confirmed by that answer */

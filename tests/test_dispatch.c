@@ -113,7 +113,7 @@ void command_reset(struct servo *s)
     fake.reset_calls++;
 }
 
-void command_torque_off(struct servo *s)
+void command_coast(struct servo *s)
 {
     (void)s;
     fake.torque_off_calls++;

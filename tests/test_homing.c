@@ -27,24 +27,24 @@ static uint8_t run(int64_t start, int64_t end, int64_t *zero_at, int64_t *end_at
     *zero_at = *end_at = INT64_MIN;
     for (*ticks = 0; *ticks < 100000; (*ticks)++) {
         uint8_t ev = homing_step(&h, switches_at(pos, end), pos);
-        if (ev == HOMING_FAIL)
+        if (ev == HOMING_EVENT_FAIL)
             return ev;
-        if (ev == HOMING_ZERO) {
+        if (ev == HOMING_EVENT_ZERO) {
             assert_int_equal(*zero_at, INT64_MIN); /* the zero is found once */
             *zero_at = pos;
         }
-        if (ev == HOMING_END) {
+        if (ev == HOMING_EVENT_END) {
             *end_at = pos;
             assert_true(homing_returning(&h));
             /* From now on homing only returns onto the end. */
-            assert_int_equal(homing_step(&h, switches_at(pos, end), pos), HOMING_RETURN);
+            assert_int_equal(homing_step(&h, switches_at(pos, end), pos), HOMING_EVENT_RETURN);
             return ev;
         }
         assert_false(homing_returning(&h));
         pos += homing_dir(&h) * STEP;
     }
     fail_msg("homing never ended");
-    return HOMING_FAIL;
+    return HOMING_EVENT_FAIL;
 }
 
 static void finds_zero_then_end_from_anywhere(void **state)
@@ -55,7 +55,7 @@ static void finds_zero_then_end_from_anywhere(void **state)
             int64_t zero_at, end_at;
             int ticks;
             uint8_t ev = run(start, end, &zero_at, &end_at, &ticks);
-            assert_int_equal(ev, HOMING_END);
+            assert_int_equal(ev, HOMING_EVENT_END);
             /* The zero is seen on switch 1 within one step of its edge, the end on
              * switch 2 within one step of its edge, in that order. */
             assert_true(zero_at <= 0 && zero_at > -STEP - 1);
@@ -70,11 +70,11 @@ static void starting_on_switch_one_backs_off_first(void **state)
     struct homing h;
     homing_start(&h, 1u, -5, MAX_TRAVEL);
     assert_int_equal(homing_dir(&h), 1); /* off the switch, toward the end */
-    assert_int_equal(homing_step(&h, 1u, -2), HOMING_RUN);
+    assert_int_equal(homing_step(&h, 1u, -2), HOMING_EVENT_RUN);
     assert_int_equal(homing_dir(&h), 1);
-    assert_int_equal(homing_step(&h, 0u, 1), HOMING_RUN); /* off it: now seek it */
+    assert_int_equal(homing_step(&h, 0u, 1), HOMING_EVENT_RUN); /* off it: now seek it */
     assert_int_equal(homing_dir(&h), -1);
-    assert_int_equal(homing_step(&h, 1u, 0), HOMING_ZERO);
+    assert_int_equal(homing_step(&h, 1u, 0), HOMING_EVENT_ZERO);
     assert_int_equal(homing_dir(&h), 1);
 }
 
@@ -83,12 +83,12 @@ static void both_switches_fail_in_every_phase(void **state)
     (void)state;
     struct homing h;
     homing_start(&h, 1u, 0, MAX_TRAVEL); /* backing off */
-    assert_int_equal(homing_step(&h, 3u, 0), HOMING_FAIL);
+    assert_int_equal(homing_step(&h, 3u, 0), HOMING_EVENT_FAIL);
     homing_start(&h, 0u, 10, MAX_TRAVEL); /* seeking */
-    assert_int_equal(homing_step(&h, 3u, 9), HOMING_FAIL);
+    assert_int_equal(homing_step(&h, 3u, 9), HOMING_EVENT_FAIL);
     homing_start(&h, 0u, 10, MAX_TRAVEL);
-    assert_int_equal(homing_step(&h, 1u, 0), HOMING_ZERO); /* now toward the end */
-    assert_int_equal(homing_step(&h, 3u, 5), HOMING_FAIL);
+    assert_int_equal(homing_step(&h, 1u, 0), HOMING_EVENT_ZERO); /* now toward the end */
+    assert_int_equal(homing_step(&h, 3u, 5), HOMING_EVENT_FAIL);
 }
 
 static void a_switch_not_found_within_the_travel_fails(void **state)
@@ -97,17 +97,17 @@ static void a_switch_not_found_within_the_travel_fails(void **state)
     int64_t zero_at, end_at;
     int ticks;
     /* The end is farther than a phase may run: found zero, then gave up. */
-    assert_int_equal(run(100, MAX_TRAVEL + 200, &zero_at, &end_at, &ticks), HOMING_FAIL);
+    assert_int_equal(run(100, MAX_TRAVEL + 200, &zero_at, &end_at, &ticks), HOMING_EVENT_FAIL);
     assert_true(zero_at != INT64_MIN);
     assert_true(ticks * STEP <= 100 + MAX_TRAVEL + 4 * STEP); /* gave up promptly */
     /* Switch 1 farther than the travel: fails while seeking, never zeroed. */
     assert_int_equal(run(MAX_TRAVEL + 100, 2 * MAX_TRAVEL, &zero_at, &end_at, &ticks),
-                     HOMING_FAIL);
+                     HOMING_EVENT_FAIL);
     assert_true(zero_at == INT64_MIN);
     /* The travel counts per phase: just within it in each phase succeeds. */
     assert_int_equal(run(MAX_TRAVEL - 2 * STEP, MAX_TRAVEL - 2 * STEP, &zero_at, &end_at,
                          &ticks),
-                     HOMING_END);
+                     HOMING_EVENT_END);
 }
 
 int main(void)

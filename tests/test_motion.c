@@ -176,12 +176,11 @@ static bool wh(void)
     return B->variant == VARIANT_WRIST || B->variant == VARIANT_FINGER;
 }
 
-/* The present position in units: register 36 (wrist, finger) or the signed turned
- * angle (40). */
+/* The present position in units (regs_position_addr(), regs.h). */
 static int32_t present(void)
 {
-    return wh() ? (int32_t)regs_get(&s.regs, REG_PRESENT_POSITION)
-                : (int32_t)(int16_t)regs_get(&s.regs, REG_TURNED_ANGLE);
+    uint8_t a = regs_position_addr(B);
+    return regs_position_value(a, regs_get(&s.regs, a));
 }
 
 static int32_t present_speed(void)
@@ -519,7 +518,7 @@ static double mean_speed(uint32_t ms, double *min_window)
 /* §6.2 speed mode (foot with limits 0/0, and the base): ramps to the speed and holds it,
  * bit 15 turns negative, 6 deg/s is held without stalling, speed 0 coasts (drive 0,
  * driver off, in the tick it arrives). */
-static void speed_mode(void **state)
+static void speed_mode_holds_the_speed_reverses_on_bit_15_and_coasts_at_0(void **state)
 {
     (void)state;
     for (int b = 0; b < 2; b++) {
@@ -796,7 +795,7 @@ static const char *random_command(void)
  * driver off within one control tick, and it stays so) or the brake (reference at rest
  * within one tick, the shaft stops and holds, releasing starts nothing), or sleep then
  * wake (nothing starts). */
-static void rule3_property(void **state)
+static void speed_0_or_brake_stops_within_a_tick_after_any_commands(void **state)
 {
     (void)state;
     rng = 0x3u;
@@ -1011,7 +1010,7 @@ static int32_t acc_q24(uint8_t reg)
 
 /* §4.8 CUSTOM MOVE: relative both directions (4 and 6 parameters), absolute; acc/dec are
  * written into 34/35 (base 21/22) and used. */
-static void custom_move(void **state)
+static void custom_move_goes_either_way_with_its_own_ramps(void **state)
 {
     (void)state;
     ready(&board_arm);
@@ -1120,7 +1119,7 @@ static void check_pass_through(const uint16_t *a, int first, int last, double st
 /* §4.7: TRAJECTORY WRITE replaces, both encodings, >= 63 points; ACTION runs the points,
  * passing intermediate ones without stopping where the direction does not change,
  * stopping at reversals and at the end, ending on the last point; it can run again. */
-static void trajectories(void **state)
+static void trajectory_passes_points_stops_at_reversals_and_ends_on_the_last(void **state)
 {
     (void)state;
     double min_at[84];
@@ -1352,15 +1351,15 @@ int main(void)
         cmocka_unit_test(position_moves_per_variant),
         cmocka_unit_test(replan_mid_move),
         cmocka_unit_test(base_relative_goal),
-        cmocka_unit_test(speed_mode),
+        cmocka_unit_test(speed_mode_holds_the_speed_reverses_on_bit_15_and_coasts_at_0),
         cmocka_unit_test(turned_angle_wraps),
         cmocka_unit_test(brake_stops_every_motion),
         cmocka_unit_test(brake_stops_a_coasting_motor),
         cmocka_unit_test(sleep_and_wake),
-        cmocka_unit_test(rule3_property),
+        cmocka_unit_test(speed_0_or_brake_stops_within_a_tick_after_any_commands),
         cmocka_unit_test(start_end_semantics),
-        cmocka_unit_test(custom_move),
-        cmocka_unit_test(trajectories),
+        cmocka_unit_test(custom_move_goes_either_way_with_its_own_ramps),
+        cmocka_unit_test(trajectory_passes_points_stops_at_reversals_and_ends_on_the_last),
         cmocka_unit_test(resolution_change_stops),
         cmocka_unit_test(holds_against_gravity),
         cmocka_unit_test(reengage_while_coasting), /* last: see there */

@@ -249,9 +249,9 @@ static void homing_happy_paths(void **state)
     (void)state;
     /* Zero side 1: switch 1 at 0, switch 2 at 420 degrees; the arm starts at 90. */
     home_arm();
-    assert_int_equal(homing_status_now(), HOMING_RUNNING);
+    assert_int_equal(homing_status_now(), HOMING_STATUS_RUNNING);
     run_ms(12000);
-    assert_int_equal(homing_status_now(), HOMING_DONE);
+    assert_int_equal(homing_status_now(), HOMING_STATUS_DONE);
     assert_int_equal(regs_get(&s.regs, REG_CW_LIMIT), 0);
     assert_int_equal(regs_get(&s.regs, REG_CCW_LIMIT), 420);
     assert_int_equal(s.motion.mode, MOTION_HOLD);
@@ -264,7 +264,7 @@ static void homing_happy_paths(void **state)
     assert_int_equal(s.regs.mem[REG_PHOTO_SWITCHES], 1);
     assert_int_equal(write8(REG_HOMING, 1), 0);
     run_ms(12000);
-    assert_int_equal(homing_status_now(), HOMING_DONE);
+    assert_int_equal(homing_status_now(), HOMING_STATUS_DONE);
     assert_int_equal(regs_get(&s.regs, REG_CCW_LIMIT), 420);
     /* Zero side 2: the mechanism's zero is at the physical positive end. */
     power_up(&board_arm);
@@ -276,7 +276,7 @@ static void homing_happy_paths(void **state)
     assert_int_equal(write8(REG_HOMING_ZERO_SIDE, 2), 0);
     assert_int_equal(write8(REG_HOMING, 1), 0);
     run_ms(12000);
-    assert_int_equal(homing_status_now(), HOMING_DONE);
+    assert_int_equal(homing_status_now(), HOMING_STATUS_DONE);
     assert_int_equal(regs_get(&s.regs, REG_CCW_LIMIT), 420);
     /* Moves now count up from the zero toward the end: goal 100 is 320 physical. */
     write16(REG_MOVING_SPEED, 90);
@@ -285,7 +285,7 @@ static void homing_happy_paths(void **state)
     assert_in_range((uint32_t)(hal.motor.theta * 57.29577951308232 + 0.5), 319, 321);
 }
 
-static void homing_failures(void **state)
+static void homing_fails_on_both_switches_or_a_missing_switch(void **state)
 {
     (void)state;
     /* Both switches at once. */
@@ -293,34 +293,34 @@ static void homing_failures(void **state)
     hal.photo_sim = false;
     hal.photo = 3;
     run_ms(100);
-    assert_int_equal(homing_status_now(), HOMING_FAILED);
+    assert_int_equal(homing_status_now(), HOMING_STATUS_FAILED);
     /* Switch 2 never found within the board's travel. */
     home_arm();
     hal.sw2_deg = 5000.0;
     run_ms(30000);
-    assert_int_equal(homing_status_now(), HOMING_FAILED);
+    assert_int_equal(homing_status_now(), HOMING_STATUS_FAILED);
     /* Stall while seeking. */
     home_arm();
     run_ms(300);
     hal.motor.blocked = true;
     run_ms(2000);
-    assert_int_equal(homing_status_now(), HOMING_FAILED);
+    assert_int_equal(homing_status_now(), HOMING_STATUS_FAILED);
     /* No switches on this board. */
     power_up(&board_foot);
     assert_int_equal(write8(REG_HOMING, 1), 0);
-    assert_int_equal(homing_status_now(), HOMING_FAILED);
+    assert_int_equal(homing_status_now(), HOMING_STATUS_FAILED);
     /* A failure leaves no reference: moves stay refused. */
     home_arm();
     hal.motor.blocked = true;
     run_ms(2000);
-    assert_int_equal(homing_status_now(), HOMING_FAILED);
+    assert_int_equal(homing_status_now(), HOMING_STATUS_FAILED);
     hal.motor.blocked = false;
     assert_int_equal(write8(REG_CLEAR_UNLOAD, 1), 0);
     assert_int_equal(write16(REG_GOAL_POSITION, 100), ERR_INSTRUCTION);
 }
 
 /* Aborts from each phase: back-off, seek, reverse. */
-static void homing_aborts(void **state)
+static void homing_aborted_in_any_phase_reads_failed_and_refuses_moves(void **state)
 {
     (void)state;
     static const uint32_t phase_ms[] = {20, 500, 3000};
@@ -343,7 +343,7 @@ static void homing_aborts(void **state)
             default: break; /* heartbeat: no packet since power-up */
             }
             run_ms(abort_kind == 4 ? 600 : 5);
-            assert_int_equal(homing_status_now(), HOMING_FAILED);
+            assert_int_equal(homing_status_now(), HOMING_STATUS_FAILED);
             assert_int_not_equal(s.motion.mode, MOTION_HOME);
             assert_int_equal(write16(REG_GOAL_POSITION, 100), ERR_INSTRUCTION);
         }
@@ -382,15 +382,64 @@ static void power_cycles_never_move(void **state)
     }
 }
 
+/* ---- the port's fittings ---------------------------------------------------------- */
+
+/* Power up b on a port that reports its fittings less those in lack. */
+static void power_up_lacking(const struct board *b, uint8_t lack)
+{
+    hal_host_init(&hal);
+    hal_host_attach_board(&hal, b);
+    hal.capabilities &= (uint8_t)~lack;
+    hal.now_us = 1000;
+    servo_init(&s, b, &hal);
+    s.regs.mem[REG_HEARTBEAT_ENABLE] = 0;
+    assert_int_equal(write16(REG_MOVING_SPEED, 120), 0);
+}
+
+/* The port reports its fittings (hal_capabilities) and the core checks the board's
+ * against them at start: on a port without the foot's encoder or terminator the servo
+ * refuses every move with ERR bit 5 and keeps the motor off, and register 25 does not
+ * lift that; the arm on a port without photo switches refuses to home. A fitting
+ * the board does not need (the foot's switches, the pot) changes nothing. */
+static void a_port_without_the_boards_fittings_never_moves(void **state)
+{
+    (void)state;
+    static const uint8_t lack[] = {HAL_CAP_ENCODER, HAL_CAP_TERMINATOR};
+    for (size_t i = 0; i < sizeof lack; i++) {
+        power_up_lacking(&board_foot, lack[i]);
+        assert_int_equal(write16(REG_GOAL_POSITION, 100), ERR_INSTRUCTION);
+        assert_int_equal(write8(REG_CLEAR_UNLOAD, 1), 0);
+        assert_int_equal(write16(REG_GOAL_POSITION, 100), ERR_INSTRUCTION);
+        run_ms(200);
+        assert_true(torque_off());
+    }
+    power_up_lacking(&board_foot, HAL_CAP_PHOTO | HAL_CAP_POT);
+    assert_int_equal(write16(REG_GOAL_POSITION, 100), 0);
+    run_ms(200);
+    assert_false(torque_off());
+
+    power_up_lacking(&board_arm, HAL_CAP_PHOTO);
+    assert_int_equal(write8(REG_HOMING, 1), ERR_INSTRUCTION);
+    run_ms(20);
+    assert_int_not_equal(homing_status_now(), HOMING_STATUS_RUNNING);
+    assert_true(torque_off());
+    power_up_lacking(&board_arm, HAL_CAP_POT);
+    assert_int_equal(write8(REG_HOMING, 1), 0);
+    run_ms(20);
+    assert_int_equal(homing_status_now(), HOMING_STATUS_RUNNING);
+    assert_false(torque_off());
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(heartbeat_randomized),
+        cmocka_unit_test(a_port_without_the_boards_fittings_never_moves),
         cmocka_unit_test(each_fault_in_each_mode),
         cmocka_unit_test(noise_does_not_trip),
         cmocka_unit_test(homing_happy_paths),
-        cmocka_unit_test(homing_failures),
-        cmocka_unit_test(homing_aborts),
+        cmocka_unit_test(homing_fails_on_both_switches_or_a_missing_switch),
+        cmocka_unit_test(homing_aborted_in_any_phase_reads_failed_and_refuses_moves),
         cmocka_unit_test(power_cycles_never_move),
     };
     return cmocka_run_group_tests(tests, 0, 0);

@@ -77,9 +77,7 @@ static void present_registers_land_where_the_variant_has_them(void **state)
         regs_init(&r, board_all[i]);
         const struct present_inputs in = {1234, -56, true, 2, 254};
         present_write(&r, board_all[i], &in);
-        uint8_t pos = regs_applicable(board_all[i], REG_PRESENT_POSITION) ? REG_PRESENT_POSITION
-                                                                        : REG_TURNED_ANGLE;
-        assert_int_equal(regs_get(&r, pos), 1234);
+        assert_int_equal(regs_get(&r, regs_position_addr(board_all[i])), 1234);
         assert_int_equal((int16_t)regs_get(&r, REG_PRESENT_SPEED), -56);
         assert_int_equal(r.mem[REG_MOVING], 1);
         assert_int_equal(r.mem[REG_PHOTO_SWITCHES], 2);

@@ -67,7 +67,7 @@ static void assert_table_sane(const struct servo *s, const uint8_t *factory)
     assert_int_equal(regs_first_invalid(&s->regs), REGS_SIZE);
 }
 
-static void random_traffic(void **state)
+static void random_traffic_gets_only_well_formed_answers_from_its_own_id(void **state)
 {
     (void)state;
     vbus_init(&bus);
@@ -128,7 +128,7 @@ static void random_traffic(void **state)
      * which no servo can prevent. The replay transcripts check clean traffic for 0. */
 }
 
-/* Found by random_traffic: L = 255 once wrapped the slice stride to 0 (a divide by
+/* Found by random_traffic_gets_only_well_formed_answers_from_its_own_id: L = 255 once wrapped the slice stride to 0 (a divide by
  * zero in the dispatcher). Such a SYNC WRITE is refused and changes nothing. */
 static void sync_write_with_l_255(void **state)
 {
@@ -151,7 +151,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(sync_write_with_l_255),
-        cmocka_unit_test(random_traffic),
+        cmocka_unit_test(random_traffic_gets_only_well_formed_answers_from_its_own_id),
     };
     return cmocka_run_group_tests(tests, 0, 0);
 }

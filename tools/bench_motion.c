@@ -50,6 +50,7 @@ uint16_t hal_supply_mv(struct hal *h) { (void)h; return 12000; }
 int16_t hal_temperature_dc(struct hal *h) { (void)h; return 250; }
 uint8_t hal_photo_switches(struct hal *h) { (void)h; return 0; }
 void hal_rs485_termination(struct hal *h, bool on) { (void)h; (void)on; }
+uint8_t hal_capabilities(struct hal *h) { (void)h; return 0xFFu; } /* every fitting */
 void hal_watchdog_start(struct hal *h) { (void)h; }
 void hal_watchdog_feed(struct hal *h) { (void)h; }
 

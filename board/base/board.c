@@ -9,7 +9,7 @@
 const struct board board_base = {
     .name = "base", .variant = VARIANT_BASE, .model_number = BOARD_MODEL_BASE,
     .max_angle_ddeg = 0, .current_limit = 50, .default_baud = 115200,
-    .return_delay = 8, .photo_switches = BOARD_PHOTO, .counts_per_rev = 16384,
+    .return_delay = 8, .photo_switches = BOARD_PHOTO, .fittings = BOARD_FITTINGS, .counts_per_rev = 16384,
     .supply_min_mv = 9000, .supply_max_mv = 15000, .homing_dps = 60, .homing_travel_deg = 800,
     .duty_per_amp = 166, /* 2 ohm at 12 V */
 };

@@ -14,6 +14,13 @@ void hal_host_init(struct hal *h)
     h->supply_mv = 12000;
     h->temperature_dc = 250;
     h->power_reset = true;
+    /* The host simulates every fitting; a test takes one away to model a port without. */
+    h->capabilities = HAL_CAP_PHOTO | HAL_CAP_TERMINATOR | HAL_CAP_ENCODER | HAL_CAP_POT;
+}
+
+uint8_t hal_capabilities(struct hal *h)
+{
+    return h->capabilities;
 }
 
 const uint8_t *hal_uid(struct hal *h)

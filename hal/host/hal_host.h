@@ -56,10 +56,13 @@ struct hal {
     uint8_t uid[HAL_UID_BYTES]; /* hal_uid(): the harness sets it per node */
     double sw1_deg, sw2_deg; /* switch 1 reads high beyond sw1 (away from sw2), 2 beyond sw2 */
     bool termination;
+    uint8_t capabilities;   /* HAL_CAP_* the port reports (hal_capabilities) */
     bool restart_requested; /* hal_restart() was called; the harness reboots */
     bool power_reset;       /* the last reboot was a power cycle, not a restart/watchdog */
+    bool image_hung;        /* servo_power_on() started an image that hangs (below) */
     bool watchdog_started;
     uint32_t watchdog_feeds;
+    uint32_t hung_since_us; /* image_hung since: the watchdog resets it SERVO_WATCHDOG_US on */
     struct hal_tx_byte log[HAL_HOST_TX_LOG];
 };
 
@@ -100,5 +103,30 @@ void hal_host_program_app(struct hal *h, const uint8_t *img, uint32_t len);
  * application slot. (image_host.c, library image_host.) */
 #define HAL_HOST_FACTORY_BYTES (16u * 1024u)
 void hal_host_program_factory(struct hal *h, const struct board *b);
+
+/* Host model only (servo_power_on): an image whose info block's reserved byte
+ * (IMAGE_OFF_RESERVED) is this stands for a build that hangs at start (tests make one by
+ * setting the byte and stamping the image again, tools/fwstamp.py). The bootloader does
+ * not look at the byte. */
+#define IMAGE_HOST_HANG 0x48u /* 'H' */
+
+struct servo;
+
+/* Power-up as the MCU does it with its bootloader (host harnesses; power_on.c): install a staged
+ * update and count the start (boot_start, boot.h), then start the application with the
+ * watchdog running, or stay in update mode (loader.h) when no valid image is installed
+ * or it has BOOT_STARTS_MAX unconfirmed starts.
+ *
+ * The host image model: whatever the image's bytes, "starting" it runs this core, with
+ * register 2 from its info block; except an image whose info block's reserved byte is
+ * IMAGE_HOST_HANG (below), which stands for a build that hangs at start: nothing runs
+ * and nothing feeds the watchdog, which resets the servo (hal_restart) after
+ * SERVO_WATCHDOG_US, as the IWDG would. */
+#define SERVO_WATCHDOG_US 250000u /* hal/stm32f1/iwdg.c: 250 ms nominal */
+void servo_power_on(struct servo *s, const struct board *b, struct hal *hal);
+
+/* Host harnesses: one main-loop step of whatever servo_power_on() started (servo_poll(),
+ * or the watchdog model of a hung image). */
+void servo_step(struct servo *s);
 
 #endif

@@ -35,6 +35,13 @@ void gpio_init(void)
 #endif
 }
 
+/* What board_pins.h fitted: the same source as the board's own description. */
+uint8_t hal_capabilities(struct hal *h)
+{
+    (void)h;
+    return BOARD_FITTINGS;
+}
+
 void hal_rs485_termination(struct hal *h, bool on)
 {
     (void)h;

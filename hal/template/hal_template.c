@@ -196,6 +196,14 @@ uint8_t hal_photo_switches(struct hal *h)
     return 0;
 }
 
+/* Power-up. The fittings this hardware has (HAL_CAP_*, hal.h): the board's must be
+ * among them, or the servo never moves. */
+uint8_t hal_capabilities(struct hal *h)
+{
+    (void)h;
+    return HAL_CAP_PHOTO | HAL_CAP_TERMINATOR | HAL_CAP_ENCODER;
+}
+
 /* Main loop. Switch the 120 ohm RS485 terminator (register 20); a no-op without one. */
 void hal_rs485_termination(struct hal *h, bool on)
 {

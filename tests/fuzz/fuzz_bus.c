@@ -84,7 +84,7 @@ static void check_table(void)
     if (memcmp(checked, s->regs.mem, sizeof checked) == 0)
         return;
     memcpy(checked, s->regs.mem, sizeof checked);
-    if (s->in_loader || s->hung)
+    if (s->in_loader || s->hal->image_hung)
         return; /* no application runs: update mode (loader.h) keeps ID, baud and delay
                  * only; an image that hangs (the host model) keeps nothing */
     CHECK(identity_unchanged(s, factory));

@@ -157,7 +157,7 @@ static void without_an_application_it_answers_the_update_handshake(void **state)
     model.usart.de_pin = BOARD_PIN_RS485_DE;
     /* The host sends the handshake 30 ms after reset, at the stored baud. */
     uint8_t hs[8];
-    uint16_t n = port_update_enter(hs, 1);
+    uint16_t n = enter_frame(hs, 1);
     model.usart.wire_free = model.now + MODEL_MS(30);
     model_wire_send(hs, n, 9600);
     uint64_t sent = model.usart.wire_free;

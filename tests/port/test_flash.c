@@ -430,22 +430,22 @@ static void a_whole_update_runs_through_the_driver(void **state)
     host_ask_expect(f, port_frame(f, 1, INS_WRITE, baud8, 2), 9600, NULL, 0);
     assert_int_equal(port_loop_for(MODEL_MS(5)), 0);
     const uint32_t baud = 921600u;
-    host_ask_expect(f, port_update_enter(f, 1), baud, READY, 1);
-    host_ask_expect(f, port_update_header(f, 1, UPDATE_BYTES), baud, ACK_C, 2);
+    host_ask_expect(f, enter_frame(f, 1), baud, READY, 1);
+    host_ask_expect(f, header_frame(f, 1, UPDATE_BYTES), baud, ACK_C, 2);
     uint32_t blocks = (UPDATE_BYTES + 1023u) / 1024u;
     for (uint32_t b = 0; b < blocks; b++) {
         uint8_t data[1024];
         memset(data, 0x1A, sizeof data); /* YMODEM's padding */
         uint32_t n = UPDATE_BYTES - b * 1024u < 1024u ? UPDATE_BYTES - b * 1024u : 1024u;
         memcpy(data, &image_v2[b * 1024u], n);
-        uint16_t len = port_update_block(f, 1, PROTO_UPDATE_TYPE_DATA, (uint8_t)(b + 1u), data);
+        uint16_t len = block_frame(f, 1, PROTO_UPDATE_TYPE_DATA, (uint8_t)(b + 1u), data);
         host_ask_expect(f, len, baud, ACK, 1);
     }
     assert_int_equal(memcmp(model_flash(STAGING0), image_v2, UPDATE_BYTES), 0);
-    host_ask_expect(f, port_update_eof(f, 1), baud, ACK_C, 2);
+    host_ask_expect(f, eof_frame(f, 1), baud, ACK_C, 2);
     uint8_t zero[PROTO_UPDATE_HEADER_DATA] = {0};
     uint32_t from = model.usart.tx_len;
-    port_host_send(f, port_update_block(f, 1, PROTO_UPDATE_TYPE_HEADER, 0, zero), baud);
+    port_host_send(f, block_frame(f, 1, PROTO_UPDATE_TYPE_HEADER, 0, zero), baud);
     uint8_t ans[8];
     /* The ACK leaves, then the servo restarts (hal_restart: SYSRESETREQ). */
     assert_int_equal(port_await(from, 7, ans, MODEL_MS(200)), MODEL_EXIT_RESET);

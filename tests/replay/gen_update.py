@@ -17,7 +17,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ARM, FOOT = 0x5203, 0x5202
 
 
-HANG = 0x48  # 'H': include/image.h IMAGE_HOST_HANG
+HANG = 0x48  # 'H': hal/host/hal_host.h IMAGE_HOST_HANG
 
 
 def image(length, model, version, seed, reserved=0):
