@@ -194,8 +194,11 @@ static bool write_record(struct store *st, uint8_t p, uint16_t off, uint8_t tag,
 {
     uint16_t head = (uint16_t)(((TAG_PATTERN | tag) << 8) | addr);
     uint16_t value = regs_value(&mem[addr], regs_table[addr].size);
-    return program(st, p, off, head) && program(st, p, (uint16_t)(off + 2u), value) &&
-           program(st, p, (uint16_t)(off + 4u), record_check(head, value, seq));
+    const uint16_t half[3] = {head, value, record_check(head, value, seq)};
+    for (uint16_t i = 0; i < 3u; i++) /* in order, the first failure ending it */
+        if (!program(st, p, (uint16_t)(off + 2u * i), half[i]))
+            return false;
+    return true;
 }
 
 /* Addresses of the registers in [from, REGS_SIZE) that the store keeps and that differ
