@@ -140,6 +140,10 @@ add_executable(${image}.elf ${SERVO_PORT_SOURCES} ${SERVO_APP_PORT_SOURCES}
 target_include_directories(${image}.elf PRIVATE hal/stm32f1 board/${BOARD})
 target_compile_options(${image}.elf PRIVATE ${SERVO_SIZE_OPTIONS_APP})
 target_link_libraries(${image}.elf PRIVATE servo_core)
+# One board per image: the core reads its description as a constant (servo_board()).
+foreach(part servo_bus servo_motion)
+    target_compile_definitions(${part} PRIVATE SERVO_BOARD_FIXED=board_${BOARD})
+endforeach()
 target_compile_definitions(${image}.elf PRIVATE SERVO_BOARD=board_${BOARD}
                            SERVO_MODEL=${SERVO_MODEL} SERVO_FW_VERSION=${SERVO_FW_VERSION}
                            SERVO_APP_MAX_BYTES=${SERVO_APP_MAX_BYTES})
@@ -182,6 +186,7 @@ add_executable(${boot}.elf ${SERVO_PORT_SOURCES}
 target_include_directories(${boot}.elf PRIVATE include hal hal/stm32f1 board/${BOARD})
 target_compile_options(${boot}.elf PRIVATE ${SERVO_SIZE_OPTIONS_BOOT})
 target_compile_definitions(${boot}.elf PRIVATE SERVO_BOOTLOADER SERVO_BOARD=board_${BOARD}
+                           SERVO_BOARD_FIXED=board_${BOARD}
                            SERVO_MODEL=${SERVO_MODEL} SERVO_FW_VERSION=${SERVO_FW_VERSION})
 servo_link_and_check(${boot} ${SERVO_LDDIR}/${BOARD_MCU}-boot.ld
     "${CMAKE_BINARY_DIR}/CMakeFiles/${boot}.elf.dir" -DGOAL_FLASH=5632)

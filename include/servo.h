@@ -48,6 +48,24 @@ struct servo {
     struct frame_rx rx;
 };
 
+/* The servo's board description. A firmware image is built for one board
+ * (SERVO_BOARD_FIXED, cmake/stm32.cmake): there it is that constant object, whose fields
+ * the link-time optimiser folds, dropping what only other boards need (the base's
+ * relative goals on the arm, homing on the base). On the host, where servos of several
+ * boards share one process, the servo's own. */
+#ifdef SERVO_BOARD_FIXED
+extern const struct board SERVO_BOARD_FIXED;
+#endif
+static inline const struct board *servo_board(const struct servo *s)
+{
+#ifdef SERVO_BOARD_FIXED
+    (void)s;
+    return &SERVO_BOARD_FIXED;
+#else
+    return s->board;
+#endif
+}
+
 /* Power-up: factory table with the stored EEPROM registers on top, settings in force,
  * receiver empty, motor off. Then servo_poll() confirms the start (boot_confirm) once
  * its first answer has left the wire, or after BOOT_CONFIRM_US. */

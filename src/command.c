@@ -21,7 +21,7 @@ static void goal_written(struct servo *s)
 {
     uint16_t goal = regs_get(&s->regs, REG_GOAL_POSITION);
     uint16_t speed = regs_get(&s->regs, REG_MOVING_SPEED);
-    if (s->board->variant == VARIANT_BASE)
+    if (servo_board(s)->variant == VARIANT_BASE)
         motion_start_move(s, motion_present_units(s) + (int16_t)goal, speed);
     else if (!regs_speed_mode(&s->regs))
         motion_start_move(s, goal, speed);
@@ -127,7 +127,7 @@ __attribute__((noinline)) void command_written(struct servo *s, const struct reg
     }
     if (reg_write_touches(w, REG_CW_LIMIT) || reg_write_touches(w, REG_CCW_LIMIT))
         motion_limits_changed(s);
-    uint8_t a = regs_ramp_addr(s->board);
+    uint8_t a = regs_ramp_addr(servo_board(s));
     if (reg_write_touches(w, a) || reg_write_touches(w, (uint8_t)(a + 1u)))
         motion_new_ramps(s);
     if (reg_write_touches(w, REG_GOAL_POSITION))
@@ -182,7 +182,7 @@ void command_custom_move(struct servo *s, const struct custom_move *cm)
     if (cm->has_ramps) {
         /* §4.8: written into the ramp registers; on the base they are EEPROM, kept lazily
          * so that driving never spends the commit budget (docs/persistence.md). */
-        uint8_t a = regs_ramp_addr(s->board);
+        uint8_t a = regs_ramp_addr(servo_board(s));
         regs_set_lazy(&s->regs, a, cm->acc);
         regs_set_lazy(&s->regs, (uint8_t)(a + 1u), cm->dec);
     }

@@ -26,7 +26,7 @@ static void ident_answer(struct servo *s, uint8_t op, uint32_t at)
         d[18u + i] = (uint8_t)~u[i]; /* single talker: exactly the complement (ident.h) */
     }
     d[13] = mem[REG_ID]; /* a SET ID's new ID: in force once this answer is out */
-    d[14] = s->board->variant;
+    d[14] = servo_board(s)->variant;
     d[15] = mem[REG_MODEL_NUMBER];
     d[16] = mem[REG_MODEL_NUMBER + 1u];
     d[17] = mem[REG_BAUD_RATE];

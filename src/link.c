@@ -21,7 +21,7 @@ bool link_baud_reachable(const struct servo *s, uint8_t addr, const uint8_t *dat
 {
     if (addr > REG_BAUD_RATE || REG_BAUD_RATE - addr >= n)
         return true;
-    uint32_t want = link_baud(s->board, data[REG_BAUD_RATE - addr]);
+    uint32_t want = link_baud(servo_board(s), data[REG_BAUD_RATE - addr]);
     uint32_t got = hal_uart_baud_achieved(s->hal, want);
     return (got > want ? got - want : want - got) <= want / 50u;
 }
@@ -55,7 +55,7 @@ void link_latch(struct servo *s)
     l->report = s->regs.mem[REG_UNLOAD_CONDITIONS] & (UNLOAD_REPORT_INSTRUCTION |
                                                       UNLOAD_REPORT_CHECKSUM);
     l->delay = s->regs.mem[REG_RETURN_DELAY];
-    uint32_t baud = link_baud(s->board, s->regs.mem[REG_BAUD_RATE]);
+    uint32_t baud = link_baud(servo_board(s), s->regs.mem[REG_BAUD_RATE]);
     if (baud != l->baud) {
         l->baud = baud;
         hal_uart_set_baud(s->hal, baud);

@@ -13,7 +13,7 @@ uint8_t loader_update_frame(struct servo *s, const struct frame *f)
     if (f->buf[0] != link_id(l))
         return UPDATE_GO_ON; /* §10 frames go to one ID; a broadcast is not for us */
     uint8_t ans[2], n;
-    uint8_t out = update_frame(&s->update, s->hal, s->board->model_number, f->buf, f->len,
+    uint8_t out = update_frame(&s->update, s->hal, servo_board(s)->model_number, f->buf, f->len,
                                f->status == FRAME_OK, f->end_us, ans, &n);
     /* Always answered (whatever register 16 says), ERR 0, after the return delay. */
     link_answer(s, link_id(l), 0, ans, n, link_reply_at(l, f->end_us));

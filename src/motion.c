@@ -19,7 +19,7 @@
 
 struct scale motion_scale(const struct servo *s)
 {
-    return (struct scale){s->board->counts_per_rev, s->regs.mem[REG_RESOLUTION]};
+    return (struct scale){servo_board(s)->counts_per_rev, s->regs.mem[REG_RESOLUTION]};
 }
 
 void motion_set_limits(struct servo *s, uint16_t speed)
@@ -29,9 +29,9 @@ void motion_set_limits(struct servo *s, uint16_t speed)
     m->lim.vmax = scale_speed_q24(motion_scale(s), speed & PROTO_SPEED_MAGNITUDE);
     if (m->lim.vmax < 1)
         m->lim.vmax = 1;
-    uint8_t a = regs_ramp_addr(s->board);
-    m->lim.acc = scale_accel_q24(s->board->counts_per_rev, s->regs.mem[a], m->lim.vmax);
-    m->lim.dec = scale_accel_q24(s->board->counts_per_rev, s->regs.mem[a + 1u], m->lim.vmax);
+    uint8_t a = regs_ramp_addr(servo_board(s));
+    m->lim.acc = scale_accel_q24(servo_board(s)->counts_per_rev, s->regs.mem[a], m->lim.vmax);
+    m->lim.dec = scale_accel_q24(servo_board(s)->counts_per_rev, s->regs.mem[a + 1u], m->lim.vmax);
 }
 
 /* Counts x 2^24 to position units from the zero, and back. */
@@ -73,7 +73,7 @@ bool motion_may_start(const struct servo *s)
  * speed mode when register 49 allows it. */
 bool motion_referenced_for(const struct servo *s, bool speed_mode)
 {
-    return !s->board->photo_switches || s->motion.referenced ||
+    return !servo_board(s)->photo_switches || s->motion.referenced ||
            (speed_mode && s->regs.mem[REG_MOVE_WITHOUT_REFERENCE]);
 }
 
@@ -179,18 +179,18 @@ void motion_start_homing(struct servo *s)
     struct motion *m = &s->motion;
     motion_home_status(s, HOMING_STATUS_RUNNING);
     m->referenced = 0;
-    if (!s->board->photo_switches || !motion_may_start(s)) {
+    if (!servo_board(s)->photo_switches || !motion_may_start(s)) {
         motion_home_fail(s);
         return;
     }
     motion_engage(s);
     m->mode = MOTION_HOME;
-    uint32_t cpr = s->board->counts_per_rev;
+    uint32_t cpr = servo_board(s)->counts_per_rev;
     /* Divided unsigned, as every 64-bit division of the image (scale.c, div_round). */
     homing_start(&m->home, m->ctl.switches, m->ctl.counts,
-                 (int64_t)((uint64_t)s->board->homing_travel_deg * cpr / 360u));
-    m->lim.vmax = scale_dps_q24(cpr, s->board->homing_dps);
-    uint8_t a = regs_ramp_addr(s->board);
+                 (int64_t)((uint64_t)servo_board(s)->homing_travel_deg * cpr / 360u));
+    m->lim.vmax = scale_dps_q24(cpr, servo_board(s)->homing_dps);
+    uint8_t a = regs_ramp_addr(servo_board(s));
     uint8_t acc = s->regs.mem[a], dec = s->regs.mem[a + 1u];
     m->lim.acc = scale_accel_q24(cpr, acc ? acc : HOMING_DEFAULT_ACC, m->lim.vmax);
     m->lim.dec = scale_accel_q24(cpr, dec ? dec : HOMING_DEFAULT_ACC, m->lim.vmax);
@@ -378,7 +378,7 @@ void motion_limits_changed(struct servo *s)
     /* On at the cruise speed in force or, from a hold, the homing speed. */
     uint16_t cruise = (uint16_t)(m->mode == MOTION_HOLD ? 0u : m->cruise & PROTO_SPEED_MAGNITUDE);
     if (!cruise) {
-        int32_t v = (int32_t)s->board->homing_dps * 10 / r->mem[REG_RESOLUTION];
+        int32_t v = (int32_t)servo_board(s)->homing_dps * 10 / r->mem[REG_RESOLUTION];
         cruise = (uint16_t)(v < 1 ? 1 : v > (int32_t)PROTO_SPEED_MAGNITUDE ? (int32_t)PROTO_SPEED_MAGNITUDE : v);
     }
     motion_start_move(s, in, cruise);
@@ -401,7 +401,7 @@ void motion_init(struct servo *s)
     regs_set(&s->regs, REG_GOAL_POSITION, regs_present_position(&s->regs));
     /* Homing without switches never ends, and a move on the wrong sensor runs away: a
      * port without the board's fittings gets a servo that answers but never moves. */
-    safety_unfit(&s->safety, (uint8_t)(s->board->fittings & ~hal_capabilities(s->hal)));
+    safety_unfit(&s->safety, (uint8_t)(servo_board(s)->fittings & ~hal_capabilities(s->hal)));
 }
 
 static struct sequence_frame seq_frame(const struct servo *s)
@@ -456,7 +456,7 @@ static void protect(struct servo *s)
         .vel_q8 = m->ctl.vel_q8,
         .moving = is_moving(m),
     };
-    uint8_t ev = safety_tick(&s->safety, &s->regs, s->board, &in);
+    uint8_t ev = safety_tick(&s->safety, &s->regs, servo_board(s), &in);
     if (ev == SAFETY_UNLOAD) {
         motion_coast(s);
     } else if (ev == SAFETY_HEARTBEAT && in.moving &&
@@ -502,7 +502,7 @@ static void tick(struct servo *s)
     if (m->mode == MOTION_OFF) {
         control_release(&m->ctl);
     } else {
-        const struct control_limits lim = {s->regs.mem[REG_CURRENT_LIMIT], s->board->duty_per_amp};
+        const struct control_limits lim = {s->regs.mem[REG_CURRENT_LIMIT], servo_board(s)->duty_per_amp};
         hal_motor_drive(s->hal, (int16_t)(control_duty(&m->ctl, &m->plan, &lim) * m->ctl.sign));
     }
 }
@@ -540,5 +540,5 @@ void motion_report(struct servo *s)
         .switches = m->ctl.switches,
         .temperature_dc = hal_temperature_dc(s->hal),
     };
-    present_write(&s->regs, s->board, &p);
+    present_write(&s->regs, servo_board(s), &p);
 }
