@@ -117,7 +117,7 @@ def polled_stops(bus, ids, timeout=5.0):
 def coordinated(sim):
     """Issue 27's coordinated start on the mixed bus: host nodes and (when the qemu image
     is built) QEMU-run arm images, all at ID 1, separated by fix_duplicates, then in speed
-    mode (angle limits 0, register 49 = 1: no homing needed) started by one SYNC WRITE
+    mode (angle limits 0, register 49 = 1: no homing needed; heartbeat off) started by one SYNC WRITE
     and by REG WRITE + one broadcast ACTION, and stopped the other way. Host nodes report
     register 42's switches in virtual time (--report-moves): the skew between them is
     exact. The images are seen from the bus only: their stop is polled."""
@@ -153,6 +153,10 @@ def coordinated(sim):
                 bus.send(P.BROADCAST, P.WRITE, bytes([8, 0, 0]))  # CCW limit 0: speed mode
                 bus.pause(0.1)
                 bus.send(P.BROADCAST, P.WRITE, bytes([49, 1]))  # speed mode before homing
+                bus.pause(0.1)
+                # heartbeat off: else each servo stops itself 500 ms after its last packet
+                # (§7.1), and the stop measured would be the heartbeat's, not the bus's
+                bus.send(P.BROADCAST, P.WRITE, bytes([17, 0]))
                 bus.pause(0.1)
                 for start in ("SYNC WRITE", "REG WRITE + ACTION"):
                     _, n = host_switches(log.name, host_ids, 1, 0)
