@@ -23,7 +23,7 @@ from . import values as V
 from .errors import BusTimeout, DuplicateId, IdTaken, ProtocolError, RangeError, \
     ServoBusError
 from .link import check_id
-from .registers import BAUD_RATES, baud_of_code, variant_by_model
+from .registers import BAUD_RATES, VARIANTS, baud_of_code, variant_by_model
 
 SUB = 0x11
 ENUMERATE = 0x01
@@ -38,7 +38,7 @@ TURNAROUND_S = 500e-6
 GUARD_S = 100e-6
 SLOTS = 16
 NIBBLES = 2 * UID_BYTES
-VARIANT_NAMES = ("base", "foot", "arm", "wrist", "finger")
+VARIANT_NAMES = tuple(VARIANTS)  # registers.json lists them in the firmware's enum order
 HEADER = bytes([P.HEADER[0], P.HEADER[1], ANSWER_ID, ANSWER_DATA + 2])
 
 Identity = collections.namedtuple("Identity", "uid id variant model baud err")
