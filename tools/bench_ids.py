@@ -8,8 +8,10 @@ BUILD_DIR holds servo-sim (default build/bench, else build/host). Called by
 tools/bench.sh (make bench). IDS_BENCH_N=10,50 limits the sizes."""
 
 import os
+import re
 import subprocess
 import sys
+import tempfile
 import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -19,6 +21,11 @@ from servobus import Bus  # noqa: E402
 from servobus import ids as ID  # noqa: E402
 from servobus import protocol as P  # noqa: E402
 from servobus.registers import BAUD_RATES  # noqa: E402
+
+sys.path.insert(0, os.path.join(ROOT, "tools"))
+TICK_US = 1000  # the control tick (include/motion.h MOTION_TICK_US)
+MOVE = re.compile(r"servo-sim: ID (\d+) moving (\d) at (\d+) us")
+QEMU_UIDS = ("a1000000000000000000000e", "b2000000000000000000000e")
 
 
 def start_sim(sim, n):
@@ -80,12 +87,132 @@ def run(sim, n, baud):
         p.wait()
 
 
+def host_switches(path, ids, to, since):
+    """{ID: virtual time (us)} of each host node's first switch of register 42 to `to`
+    after line `since` of servo-sim's --report-moves log; and the log's length."""
+    with open(path) as f:
+        lines = f.read().splitlines()
+    at = {}
+    for line in lines[since:]:
+        m = MOVE.match(line)
+        if m and int(m.group(1)) in ids and int(m.group(2)) == to:
+            at.setdefault(int(m.group(1)), int(m.group(3)))
+    return at, len(lines)
+
+
+def polled_stops(bus, ids, timeout=5.0):
+    """Real time at which each servo was first read at register 42 = 0, reading every one
+    in turn (a poll cycle is the resolution); and the longest cycle."""
+    stop, cycle, last = {}, 0.0, time.monotonic()
+    t_end = last + timeout
+    while len(stop) < len(ids) and time.monotonic() < t_end:
+        for i in ids:
+            if i not in stop and bus.read(i, "moving") == 0:
+                stop[i] = time.monotonic()
+        now = time.monotonic()
+        cycle, last = max(cycle, now - last), now
+    return stop, cycle
+
+
+def coordinated(sim):
+    """Issue 27's coordinated start on the mixed bus: host nodes and (when the qemu image
+    is built) QEMU-run arm images, all at ID 1, separated by fix_duplicates, then in speed
+    mode (angle limits 0, register 49 = 1: no homing needed; heartbeat off) started by one SYNC WRITE
+    and by REG WRITE + one broadcast ACTION, and stopped the other way. Host nodes report
+    register 42's switches in virtual time (--report-moves): the skew between them is
+    exact. The images are seen from the bus only: their stop is polled."""
+    qemus, log = [], tempfile.NamedTemporaryFile("w+", suffix=".log", delete=False)
+    try:
+        try:
+            from qemu_servo import QemuServo
+            qemus = [QemuServo(uid=bytes.fromhex(u)) for u in QEMU_UIDS]
+            if not all(q.wait_ready() for q in qemus):
+                raise RuntimeError("an image did not answer PING")
+            why = ""
+        except (OSError, RuntimeError) as e:
+            for q in qemus:
+                q.stop()
+            qemus, why = [], str(e).splitlines()[0] if str(e) else type(e).__name__
+        args = [sim, "--listen", "127.0.0.1:0", "--report-moves"] + ["--servo", "1:arm"] * 4
+        for q in qemus:
+            args += ["--uart", "127.0.0.1:%d" % q.port]
+        p = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=log, text=True)
+        line = p.stdout.readline()
+        url = "tcp://127.0.0.1:%d" % int(line.split("listening on ")[1].split()[0].rsplit(":", 1)[1])
+        print("== coordinated start (issue 27) on a mixed bus: 4 host nodes + %s" % (
+            "%d QEMU arm images (servo-sim --uart)" % len(qemus) if qemus else
+            "NO QEMU image (%s): host nodes only" % (why or "build/qemu not built")))
+        try:
+            with Bus(url, timeout=1.5) as bus:
+                bus.fix_duplicates(bus.enumerate())
+                idents = bus.enumerate()
+                qemu_ids = sorted(i.id for i in idents if i.uid.hex() in QEMU_UIDS)
+                host_ids = sorted(i.id for i in idents if i.uid.hex() not in QEMU_UIDS)
+                ids = sorted(host_ids + qemu_ids)
+                ok = len(host_ids) == 4 and len(qemu_ids) == len(qemus)
+                bus.send(P.BROADCAST, P.WRITE, bytes([8, 0, 0]))  # CCW limit 0: speed mode
+                bus.pause(0.1)
+                bus.send(P.BROADCAST, P.WRITE, bytes([49, 1]))  # speed mode before homing
+                bus.pause(0.1)
+                # heartbeat off: else each servo stops itself 500 ms after its last packet
+                # (§7.1), and the stop measured would be the heartbeat's, not the bus's
+                bus.send(P.BROADCAST, P.WRITE, bytes([17, 0]))
+                bus.pause(0.1)
+                for start in ("SYNC WRITE", "REG WRITE + ACTION"):
+                    _, n = host_switches(log.name, host_ids, 1, 0)
+                    if start == "SYNC WRITE":
+                        bus.sync_write("moving_speed", {i: 90 for i in ids})
+                    else:
+                        for i in ids:
+                            bus.reg_write(i, "moving_speed", 90)
+                        bus.action()
+                    bus.pause(0.5)
+                    began, n = host_switches(log.name, host_ids, 1, n)
+                    stop_by = "REG WRITE + ACTION" if start == "SYNC WRITE" else "SYNC WRITE"
+                    if stop_by == "SYNC WRITE":
+                        bus.sync_write("moving_speed", {i: 0 for i in ids})
+                    else:
+                        for i in ids:
+                            bus.reg_write(i, "moving_speed", 0)
+                        bus.action()
+                    polled, cycle = polled_stops(bus, ids)
+                    bus.pause(0.2)
+                    ended, _ = host_switches(log.name, host_ids, 0, n)
+                    ok &= len(began) == len(ended) == len(host_ids) and len(polled) == len(ids)
+                    if len(began) == len(host_ids):
+                        skew = max(began.values()) - min(began.values())
+                        ok &= skew <= TICK_US
+                        print("bench ids: coordinated start skew %d us by %s (%d host nodes, "
+                              "limit 1 tick = %d us)%s" % (skew, start, len(host_ids), TICK_US,
+                                                          "" if skew <= TICK_US else "  !! OVER"))
+                    if len(ended) == len(host_ids):
+                        print("bench ids: end skew %d us, stopped by %s (%d host nodes, "
+                              "virtual clock)" % (max(ended.values()) - min(ended.values()),
+                                                  stop_by, len(host_ids)))
+                    if len(polled) == len(ids):
+                        print("bench ids: end skew %d ms, stopped by %s (all %d servos, %d on "
+                              "QEMU; polled, resolution %d ms)" % (
+                                  round(1000 * (max(polled.values()) - min(polled.values()))),
+                                  stop_by, len(ids), len(qemu_ids), round(1000 * cycle)))
+        finally:
+            p.terminate()
+            p.wait()
+        if not ok:
+            print("!! coordinated start: not every servo started and stopped (see above)")
+    finally:
+        for q in qemus:
+            q.stop()
+        log.close()
+        os.unlink(log.name)
+
+
 def main():
     build = sys.argv[1] if len(sys.argv) > 1 else "build/bench"
     sim = os.path.join(build, "servo-sim")
     if not os.access(sim, os.X_OK):
         sim = os.path.join("build", "host", "servo-sim")
     sizes = [int(x) for x in os.environ.get("IDS_BENCH_N", "10,50,253").split(",")]
+    coordinated(sim)
     print("== issue 27: enumerate and separate N factory-fresh servos (all at ID 1) on servo-sim")
     ok = True
     for baud in (9600, 921600):

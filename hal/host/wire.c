@@ -41,7 +41,7 @@ static const struct wire_byte *at(const struct wire_talker *tk, uint32_t i)
 
 static int64_t byte_end(const struct wire_byte *b)
 {
-    return wire_bit_ns(b->start_ns, b->baud, 10);
+    return b->end_ns;
 }
 
 /* Keep the list of talkers with bytes on the line: only they can pull it low. */
@@ -78,6 +78,7 @@ void wire_put(struct wire *w, unsigned talker, int64_t start_ns, uint32_t baud, 
     }
     struct wire_byte *b = &tk->q[(tk->head + tk->len++) & (tk->cap - 1u)];
     b->start_ns = start_ns;
+    b->end_ns = wire_bit_ns(start_ns, baud, 10);
     b->baud = baud;
     b->byte = byte;
     w->changes++;
@@ -143,6 +144,10 @@ static int bit_of(const struct wire_byte *b, int64_t k)
 /* The talker's byte on the line at t (or 0), and which bit of it. */
 static const struct wire_byte *byte_at(const struct wire_talker *tk, int64_t t, int64_t *bit)
 {
+    /* Most talkers of a large bus have nothing on the line at t (their answer is in
+     * another slot): say so without the search. */
+    if (tk->len == 0 || t < at(tk, 0)->start_ns || t >= at(tk, tk->len - 1u)->end_ns)
+        return 0;
     int64_t i = last_at_or_before(tk, t);
     if (i < 0)
         return 0;
@@ -177,37 +182,82 @@ int wire_level(const struct wire *w, int64_t t)
     return 1;
 }
 
-/* The first time after t at which any talker's level may change, or NONE: the next bit
- * boundary of its byte on the line at t, or the start of its next byte (which may
- * begin a nanosecond before the previous one's rounded end). */
-static int64_t next_boundary(const struct wire *w, int64_t t)
+/* Talker tk's level at t: 1 (idle, or a 1 bit) or 0. */
+static int talker_level(const struct wire_talker *tk, int64_t t)
+{
+    int64_t bit;
+    const struct wire_byte *b = byte_at(tk, t, &bit);
+    return b ? bit_of(b, bit) : 1;
+}
+
+/* Talker tk is low at t: when it next goes high (the next 1 bit; the stop bit at the
+ * latest). */
+static int64_t talker_rise(const struct wire_talker *tk, int64_t t)
+{
+    int64_t bit;
+    const struct wire_byte *b = byte_at(tk, t, &bit);
+    int64_t k = bit + 1;
+    while (k < 9 && !bit_of(b, k))
+        k++;
+    return wire_bit_ns(b->start_ns, b->baud, (unsigned)k);
+}
+
+/* Talker tk is high at t: when it next goes low (a 0 bit of its byte at t, or the start
+ * of its next byte, which may begin a nanosecond before the previous one's rounded
+ * end), or NONE. */
+static int64_t talker_fall(const struct wire_talker *tk, int64_t t)
 {
     int64_t next = NONE;
-    for (unsigned a = 0; a < w->nactive; a++) {
-        const struct wire_talker *tk = &w->t[w->active[a]];
-        int64_t bit, k = last_at_or_before(tk, t) + 1;
-        const struct wire_byte *cur = byte_at(tk, t, &bit);
-        if (cur) {
-            int64_t b = wire_bit_ns(cur->start_ns, cur->baud, (unsigned)bit + 1u);
-            next = b < next ? b : next;
+    if (tk->len == 0 || t >= at(tk, tk->len - 1u)->end_ns)
+        return NONE;
+    if (t < at(tk, 0)->start_ns)
+        return at(tk, 0)->start_ns;
+    int64_t bit, k = last_at_or_before(tk, t) + 1;
+    const struct wire_byte *b = byte_at(tk, t, &bit);
+    if (b) {
+        for (int64_t j = bit + 1; j <= 8; j++) {
+            if (!bit_of(b, j)) {
+                next = wire_bit_ns(b->start_ns, b->baud, (unsigned)j);
+                break;
+            }
         }
-        if (k < (int64_t)tk->len && at(tk, (uint32_t)k)->start_ns < next)
-            next = at(tk, (uint32_t)k)->start_ns;
     }
+    if (k < (int64_t)tk->len && at(tk, (uint32_t)k)->start_ns < next)
+        next = at(tk, (uint32_t)k)->start_ns;
     return next;
 }
 
-static bool falling_edge(const struct wire *w, int64_t t)
-{
-    return wire_level(w, t) == 0 && wire_level(w, t - 1) == 1;
-}
-
-/* The first falling edge at or after t, or NONE. */
+/* The first falling edge at or after t, or NONE. Not bit boundary by bit boundary (on
+ * a bus of 253 servos whose answers overlap that is thousands per byte, each asking
+ * every talker): while the line is low, on to the latest next rise of those pulling
+ * it low (it cannot rise, nor so fall, before); once it is high, the earliest next fall
+ * of anyone is the edge. */
 static int64_t find_edge(const struct wire *w, int64_t t)
 {
-    while (t != NONE && !falling_edge(w, t))
-        t = next_boundary(w, t);
-    return t;
+    while (t != NONE) {
+        int low = 0;
+        int64_t rise = t, fall = NONE;
+        for (unsigned a = 0; a < w->nactive; a++) {
+            const struct wire_talker *tk = &w->t[w->active[a]];
+            if (!talker_level(tk, t)) {
+                low = 1;
+                int64_t r = talker_rise(tk, t);
+                rise = r > rise ? r : rise;
+            }
+        }
+        if (low) {
+            if (wire_level(w, t - 1))
+                return t; /* the line falls at t itself */
+            t = rise;
+            continue;
+        }
+        for (unsigned a = 0; a < w->nactive; a++) {
+            int64_t f = talker_fall(&w->t[w->active[a]], t);
+            fall = f < fall ? f : fall;
+        }
+        return fall;
+    }
+    return NONE;
 }
 
 /* For a receiver of every baud: the baud of the talker whose start bit begins at edge,

@@ -27,6 +27,8 @@
 
 struct wire_byte {
     int64_t start_ns; /* the start bit begins */
+    int64_t end_ns;   /* its stop bit ends (wire_bit_ns(start_ns, baud, 10), kept: a
+                       * receiver asks it of every talker at every bit boundary) */
     uint32_t baud;
     uint8_t byte;
 };

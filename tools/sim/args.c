@@ -12,7 +12,7 @@
 static const char usage[] =
     "usage: servo-sim --listen HOST:PORT [--servo ID:VARIANT[:UID]]... "
     "[--uart HOST:PORT[:BAUD]]... [--state-dir DIR] "
-    "[--report-commits]";
+    "[--report-commits] [--report-moves]";
 
 static bool parse_uint(const char *s, unsigned long max, unsigned long *out)
 {
@@ -171,6 +171,8 @@ void args_parse(int argc, char **argv, struct sim_args *a)
             add_uart(a, val);
         } else if (strcmp(argv[i], "--report-commits") == 0) {
             a->report_commits = true;
+        } else if (strcmp(argv[i], "--report-moves") == 0) {
+            a->report_moves = true;
         } else if ((val = option(argc, argv, &i, "--state-dir"))) {
             if (!*val)
                 die(2, "--state-dir needs a directory");

@@ -1,7 +1,7 @@
 /* args.h - servo-sim's command line:
  *
  *   servo-sim --listen HOST:PORT [--servo ID:VARIANT[:UID]]... [--uart HOST:PORT[:BAUD]]...
- *             [--state-dir DIR] [--report-commits]
+ *             [--state-dir DIR] [--report-commits] [--report-moves]
  *
  * --uart: a device behind a TCP byte stream on the line (tools/sim/bus.h bus_add_ext),
  * e.g. a QEMU-run arm image's USART1 (tools/qemu_servo.py), at BAUD (default 9600).
@@ -37,6 +37,7 @@ struct sim_args {
     const char *listen_text;
     const char *state_dir; /* 0 without --state-dir */
     bool report_commits;   /* --report-commits: each servo's commit tokens on stderr */
+    bool report_moves;     /* --report-moves: each switch of a servo's register 42 on stderr */
     unsigned nservos;      /* at least 1: one arm with ID 1 when none is given */
     struct servo_arg servo[SIM_SERVOS_MAX];
     unsigned nuarts;

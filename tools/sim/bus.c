@@ -174,6 +174,25 @@ static void report_tokens(struct sim_servo *v)
     fprintf(stderr, "servo-sim: ID %u commit tokens %d\n", link_id(&v->node.servo.link), now);
 }
 
+static bool moves_reported;
+
+void bus_report_moves(void)
+{
+    moves_reported = true;
+    for (unsigned i = 0; i < servo_count; i++)
+        servos[i]->moving = -1;
+}
+
+static void report_moving(struct sim_servo *v, int64_t t)
+{
+    int now = regs_get(&v->node.servo.regs, REG_MOVING);
+    if (!moves_reported || now == v->moving)
+        return;
+    v->moving = now;
+    fprintf(stderr, "servo-sim: ID %u moving %d at %lld us\n", link_id(&v->node.servo.link), now,
+            (long long)t);
+}
+
 /* Run servo i's main loop at t: passes at once while a frame waits and the link is free,
  * or while its answer is due. Between its due time and its start (skew) the MCU is still
  * in the pass that will start it: nothing runs. */
@@ -191,6 +210,7 @@ static void run_at(unsigned i, int64_t t)
         collect(i);
         report_terminator(servos[i]);
         report_tokens(servos[i]);
+        report_moving(servos[i], t);
         /* A frame is executed even while an answer waits (servo.c): only sending stops it. */
         bool next_frame = l->state != LINK_SENDING && frame_rx_peek(&n->servo.rx) != NULL;
         if (!next_frame && !(l->state == LINK_WAITING && t >= answer_start(i)))

@@ -65,6 +65,7 @@ struct sim_servo {
     struct wire_rx rx;   /* its UART on the line */
     bool terminator;     /* the RS485 terminator as last reported on stderr */
     int tokens;          /* its commit tokens as last reported (-1: not yet) */
+    int moving;          /* register 42 as last reported (-1: not yet) */
     int64_t send_t0_ns;  /* the transmission its bytes belong to (exact bit times) */
     uint32_t send_t0_us, send_baud, send_i;
     uint64_t raw_next;   /* the next raw client byte its UART delivers (a count) */
@@ -85,6 +86,12 @@ void bus_add(uint8_t arg_id, const struct board *b, const uint8_t uid[HAL_UID_BY
  * spent, a token back) is a line `servo-sim: ID N commit tokens T` on stderr, and each
  * servo's count once at once: what a host's budget estimate is checked against. */
 void bus_report_commits(void);
+
+/* --report-moves: from now on, each switch of a servo's register 42 (moving) is a line
+ * `servo-sim: ID N moving 0|1 at T us` on stderr, T its virtual clock when the main-loop
+ * pass that switched it ran: what make bench's coordinated-start skew is measured from
+ * (tools/bench_ids.py). Servos behind --uart are not seen from inside. */
+void bus_report_moves(void);
 
 /* The real clock starts: every servo's clock is set to it. */
 void bus_start(void);

@@ -112,6 +112,8 @@ int main(int argc, char **argv)
     bus_start();
     if (args.report_commits)
         bus_report_commits();
+    if (args.report_moves)
+        bus_report_moves();
     banner(&args.listen);
     client_serve(lfd, &poll_mask, &stop_signal);
     close(lfd);
