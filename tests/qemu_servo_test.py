@@ -135,7 +135,9 @@ def bus_group(q):
         read1(w, 34, 0x30, "READ acceleration after the bad WRITE (not executed)")
         w.ask(frame(1, 0x02, 48, 5), status(1, 0x20), "READ past the table")
         w.ask(frame(1, 0x03, 42, 1), status(1, 0x20), "WRITE of read-only register 42")
-        w.ask(frame(1, 0x7E), status(1, 0x20), "unknown instruction 0x7E")
+        w.ask(frame(1, 0x4E), status(1, 0x20), "unknown instruction 0x4E")
+        # 0x7E reads as an error answer's ERR byte: silent (docs/decisions.md, duplicate IDs)
+        w.silent(frame(1, 0x7E), "unknown instruction 0x7E (an ERR byte's shape)")
         w.silent(frame(2, 0x01), "PING to ID 2 (nobody)")
         say("errors: checksum ERR 0x10 (not executed), instruction ERR 0x20, other ID silent")
 
