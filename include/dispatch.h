@@ -24,11 +24,17 @@ struct servo;
                                   * before homing; a speed of 0 (rule 3) always passes */
 #define INS_COMMITS 0x10u        /* may change an EEPROM register: spends the commit budget */
 #define INS_BROADCAST_ONLY 0x20u /* addressed to one ID: instruction error (SYNC WRITE) */
+#define INS_OWN_ANSWER 0x40u     /* once its rules pass, it answers by itself, at its own ID
+                                  * and time, or not at all: dispatch schedules nothing */
 
-/* An instruction's outcome: per-packet ERR bits and the answer's parameters. */
+/* An instruction's outcome: per-packet ERR bits and the answer's parameters. A handler
+ * that answers by itself (INS_OWN_ANSWER) reads the frame's end and addressing here. */
 struct dispatch_result {
     uint8_t err;
     uint8_t n;
+    uint8_t own_answer; /* the entry that ran has INS_OWN_ANSWER (set by dispatch) */
+    bool broadcast;
+    uint32_t end_us;
     uint8_t data[REGS_SIZE];
 };
 

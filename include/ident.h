@@ -22,7 +22,10 @@
  * in one slot overlap bit for bit on an RS485 bus with fail-safe bias (the line is the AND
  * of the talkers): uid & ~uid of the result is nonzero only for a single talker, and the
  * first UID bit where both copies read 0 is where the talkers differ.
- * Main loop only; never in update mode. */
+ * It is an entry of CUSTOM's sub-command table (src/dispatch.c, INS_OWN_ANSWER): the
+ * table's rules come first, so sub 0x11 without an op, or during a §10 update session, is
+ * an instruction error as any other (§4.8); a malformed op, or a UID not this servo's,
+ * gets no answer. Main loop only; never in update mode (the loader takes §10 frames only). */
 #ifndef IDENT_H
 #define IDENT_H
 

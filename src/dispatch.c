@@ -162,6 +162,14 @@ static uint8_t do_custom_move(struct servo *s, const uint8_t *p, uint8_t n,
     return 0;
 }
 
+/* Issue 27's identity sub-command: ident.c answers at ID 0xFF, or not at all. Not
+ * inlined: inlining it costs the arm image 56 B more. */
+__attribute__((noinline)) static uint8_t do_ident(struct servo *s, const uint8_t *p, uint8_t n, struct dispatch_result *res)
+{
+    ident_frame(s, &p[1], (uint8_t)(n - 1u), res->broadcast, res->end_us);
+    return 0;
+}
+
 /* Every instruction, once (§4): code, rules, parameter bytes min..max, the offset of a
  * speed parameter whose 0 is a stop (rule 3) or NO_SPEED, handler, the SDK's name. One
  * list yields both the table (rules, for dispatch, the SDK and the tests) and the switch
@@ -187,7 +195,8 @@ static uint8_t do_custom_move(struct servo *s, const uint8_t *p, uint8_t n,
 /* cppcheck-suppress misra-c2012-20.7 ; an X-macro list: X names a macro (docs/lint.md) */
 #define CUSTOM_SUBS(X)                                                                       \
     X(0x01u, INS_MOVES, 4, 6, 2, do_custom_move, "move_relative")                           \
-    X(0x02u, INS_MOVES, 6, 6, 2, do_custom_move, "move_absolute")
+    X(0x02u, INS_MOVES, 6, 6, 2, do_custom_move, "move_absolute")                           \
+    X(IDENT_SUB, INS_OWN_ANSWER | INS_COMMITS, 1, 255, NO_SPEED, do_ident, "identity")
 
 #define ENTRY(code, flags, min_n, max_n, speed_at, run, name)                                 \
     {(code), (flags), (min_n), (max_n), (speed_at)NAME(name)},
@@ -232,7 +241,8 @@ static uint8_t do_custom(struct servo *s, const uint8_t *p, uint8_t n, struct di
     const struct instruction *sub = find(dispatch_custom, dispatch_custom_count, p[0]);
     uint8_t err = check(s, sub, &p[1], (uint8_t)(n - 1u), true);
     if (err)
-        return err; /* other subs and lengths (§4.8), or a move that may not start */
+        return err; /* other subs and lengths (§4.8), a move that may not start, an update */
+    res->own_answer = sub->flags & INS_OWN_ANSWER;
     switch (p[0]) {
         /* NOLINTNEXTLINE(bugprone-branch-clone): both moves share a handler, by design */
         CUSTOM_SUBS(CALL)
@@ -286,15 +296,13 @@ void dispatch_frame(struct servo *s, const struct frame *f)
     }
 
     safety_packet_seen(&s->safety); /* §7.1: any valid packet for this servo feeds the heartbeat */
-    if (f->buf[2] == INS_CUSTOM && f->buf[1] > 3u && f->buf[3] == IDENT_SUB) {
-        ident_frame(s, &f->buf[4], (uint8_t)(f->buf[1] - 3u), broadcast, f->end_us);
-        return; /* answered by ident.c, at ID 0xFF, or not at all (ident.h) */
-    }
     const struct instruction *in =
         find(dispatch_instructions, dispatch_instruction_count, f->buf[2]);
     uint8_t n = (uint8_t)(f->buf[1] - 2u); /* LEN counts INS and CHK */
-    struct dispatch_result res = {0};
+    struct dispatch_result res = {.broadcast = broadcast, .end_us = f->end_us};
     res.err = run(s, in, &f->buf[3], n, broadcast, &res);
+    if (res.own_answer)
+        return; /* answered by the handler, or not at all, errors included */
     uint8_t flags = in ? in->flags : 0u;
     if (broadcast && (!(flags & INS_ANSWER_ALWAYS) || res.err == ERR_INSTRUCTION))
         return; /* §3.2: nobody answers a broadcast but a good PING */

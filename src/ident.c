@@ -35,8 +35,6 @@ static void ident_answer(struct servo *s, uint8_t op, uint32_t at)
 
 void ident_frame(struct servo *s, const uint8_t *p, uint8_t n, bool broadcast, uint32_t end_us)
 {
-    if (update_in_session(&s->update))
-        return; /* an update session: the servo only reports */
     const uint8_t *u = hal_uid(s->hal);
     uint32_t at = end_us + IDENT_TURNAROUND_US;
     uint8_t op = p[0];

@@ -23,6 +23,7 @@
 #include <cmocka.h>
 
 #include "dispatch.h"
+#include "ident.h"
 #include "proto.h"
 #include "store.h"
 #include "vbus.h"
@@ -172,7 +173,8 @@ struct tally {
     uint32_t sequences, frames, changing, answered_in_budget, unanswered_in_budget, deferred,
         deferred_landed, refused, cuts_between, cuts_mid_frame, cuts_in_flash, restarts, quiet_frames,
         lazy_changes, lazy_alone, lazy_along;
-    uint32_t sent[256]; /* frames per instruction code */
+    uint32_t sent[256];     /* frames per instruction code */
+    uint32_t sent_sub[256]; /* CUSTOM frames per sub-command */
     uint32_t hi_pairs[2][128][128 / 32]; /* CW, CCW: (old high byte, new high byte) seen */
 };
 
@@ -538,6 +540,17 @@ static void plan_frame(struct frame_plan *f, const uint16_t *table, bool burst)
         f->n = 2;
         return;
     case 14:
+        if (below(3) == 0) { /* the identity sub's SET ID (ident.h): its own UID or not */
+            f->id = below(2) ? cur_id : PROTO_ID_BROADCAST;
+            f->ins = INS_CUSTOM;
+            f->data[0] = IDENT_SUB;
+            f->data[1] = IDENT_SET_ID;
+            memcpy(&f->data[2], hal_uid(hv), IDENT_UID_BYTES);
+            f->data[2u + below(IDENT_UID_BYTES)] ^= below(4) == 0 ? 0x10u : 0u;
+            f->data[14] = below(2) ? cur_id : (uint8_t)(1u + below(PROTO_ID_MAX));
+            f->n = 15;
+            return;
+        }
         f->ins = INS_PING;
         return;
     default: /* traffic for other servos: PING, READ, WRITE of EEPROM registers */
@@ -558,12 +571,20 @@ static void plan_frame(struct frame_plan *f, const uint16_t *table, bool burst)
     }
 }
 
-/* The instruction table's own word (dispatch.h): does this instruction spend commits? */
-static bool instruction_commits(uint8_t ins)
+/* The instruction table's own word (dispatch.h): does this frame spend commits? CUSTOM's
+ * rules are its sub-command's. */
+static bool instruction_commits(const struct frame_plan *f)
 {
-    for (uint8_t i = 0; i < dispatch_instruction_count; i++)
-        if (dispatch_instructions[i].code == ins)
-            return (dispatch_instructions[i].flags & INS_COMMITS) != 0u;
+    const struct instruction *t = dispatch_instructions;
+    uint8_t count = dispatch_instruction_count, code = f->ins;
+    if (f->ins == INS_CUSTOM && f->n > 0u) {
+        t = dispatch_custom;
+        count = dispatch_custom_count;
+        code = f->data[0];
+    }
+    for (uint8_t i = 0; i < count; i++)
+        if (t[i].code == code)
+            return (t[i].flags & INS_COMMITS) != 0u;
     return false;
 }
 
@@ -619,7 +640,9 @@ static void run_frame(const struct frame_plan *f, int cut)
     }
     hv->flash.cut_at = 0;
     tally.sent[f->ins]++;
-    bool commits = instruction_commits(f->ins);
+    if (f->ins == INS_CUSTOM && f->n > 0u)
+        tally.sent_sub[f->data[0]]++;
+    bool commits = instruction_commits(f);
     if (!changed && commits && f->for_us && model.lazy && !model.pending) {
         /* An accepted write of an EEPROM register commits whatever differs from flash, a
          * waiting lazy change included, though it changed no value (unit.adversary): in
@@ -827,6 +850,10 @@ static void random_sequences_keep_every_acknowledged_write(void **state)
         if ((dispatch_instructions[i].flags & INS_COMMITS) && !tally.sent[dispatch_instructions[i].code])
             fail_msg("instruction 0x%02X spends commits (INS_COMMITS) but the generator never "
                      "sent it", dispatch_instructions[i].code);
+    for (uint8_t i = 0; i < dispatch_custom_count; i++)
+        if ((dispatch_custom[i].flags & INS_COMMITS) && !tally.sent_sub[dispatch_custom[i].code])
+            fail_msg("CUSTOM sub 0x%02X spends commits (INS_COMMITS) but the generator never "
+                     "sent it", dispatch_custom[i].code);
     print_message("lazy changes (CUSTOM MOVE's ramps on the base): %u, landed alone %u, with "
                   "another commit %u\n", tally.lazy_changes, tally.lazy_alone, tally.lazy_along);
     if (n >= 100u) {

@@ -14,6 +14,7 @@
 #include "ident.h"
 #include "link.h"
 #include "proto.h"
+#include "update.h"
 #include "vbus.h"
 
 static struct vbus bus;
@@ -236,6 +237,32 @@ static void sub_0x11_without_an_op_is_an_instruction_error_as_before(void **stat
     assert_int_equal(b[4] & ERR_INSTRUCTION, ERR_INSTRUCTION);
 }
 
+/* During a §10 update session the servo only reports (PROTOCOL.md §10): the identity
+ * sub is refused as any other instruction (an instruction error at its ID when
+ * addressed), and a SET ID by its UID changes nothing. */
+static void an_update_session_refuses_identity_ops(void **state)
+{
+    (void)state;
+    uint8_t pkt[16];
+    uint8_t enter = PROTO_UPDATE_SUB_ENTER;
+    uint16_t len = proto_build_packet(pkt, 5, INS_CUSTOM, &enter, 1);
+    vbus_host_send(&bus, pkt, len);
+    vbus_run_until(&bus, bus.now_us + 100000u);
+    while (vbus_host_pending(&bus))
+        (void)vbus_host_next(&bus);
+    assert_true(update_in_session(&bus.node[2].servo.update));
+    uint8_t op = IDENT_IDENTIFY;
+    ident(5, &op, 1, 100);
+    assert_int_equal(ngot, 0);
+    assert_int_equal(other_bytes, 6); /* D5 5D 05 02 ERR CHK */
+    uint8_t set[14] = {IDENT_SET_ID};
+    memcpy(&set[1], uid_c, 12);
+    set[13] = 9;
+    ident(PROTO_ID_BROADCAST, set, 14, 200);
+    assert_int_equal(ngot + other_bytes, 0);
+    assert_int_equal(link_id(&bus.node[2].servo.link), 5);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -244,6 +271,7 @@ int main(void)
         cmocka_unit_test_setup(identify_by_id_and_by_uid, setup),
         cmocka_unit_test_setup(set_id_by_uid_moves_that_servo_alone_and_it_stays, setup),
         cmocka_unit_test_setup(sub_0x11_without_an_op_is_an_instruction_error_as_before, setup),
+        cmocka_unit_test_setup(an_update_session_refuses_identity_ops, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -29,6 +29,7 @@ static const struct {
     {INS_ANSWER_LEVEL1, "answer_level1"}, {INS_ANSWER_ALWAYS, "answer_always"},
     {INS_IN_UPDATE, "in_update"},         {INS_MOVES, "moves"},
     {INS_COMMITS, "commits"},             {INS_BROADCAST_ONLY, "broadcast_only"},
+    {INS_OWN_ANSWER, "own_answer"},
 };
 
 static void print_entries(const struct instruction *t, uint8_t count, const char *code_key)

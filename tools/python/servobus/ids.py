@@ -25,7 +25,9 @@ from .errors import BusTimeout, DuplicateId, IdTaken, ProtocolError, RangeError,
 from .link import check_id
 from .registers import BAUD_RATES, VARIANTS, baud_of_code, variant_by_model
 
-SUB = 0x11
+SUB = P.CUSTOM_SUBS["identity"]["sub"]
+# SET ID writes register 3: one flash commit, which the budget model counts (budget.py)
+SET_ID_COMMITS = "commits" in P.CUSTOM_SUBS["identity"]["flags"]
 ENUMERATE = 0x01
 IDENTIFY = 0x02
 SET_ID = 0x03
@@ -268,6 +270,7 @@ class Ids:
             self._quiet_at = max(self._quiet_at, time.monotonic()) + \
                 len(frame) * P.byte_time(self.baud)
             self._variants.pop(new_id, None)
+            self._count_commit(new_id)
             return None
         before = self.identify(uid)
         if before.id == new_id:
@@ -284,8 +287,13 @@ class Ids:
             except BusTimeout:
                 continue
             if after.id == new_id:
+                self._count_commit(new_id)
                 return after
         raise ProtocolError("UID %s did not take ID %d" % (uid_text(uid), new_id))
+
+    def _count_commit(self, new_id):
+        if SET_ID_COMMITS:
+            self.commit_wait = self.commit_budget.commit(self.budget_key(new_id))
 
     def fix_duplicates(self, idents=None, free=None):
         """Give every servo that shares an ID with another a free ID. The one with the

@@ -34,6 +34,8 @@ CUSTOM = _INS["custom"]["code"]
 # flash, spending one token of its commit budget (budget.py). Homing's measured limits
 # are committed too, when it completes; REG WRITE commits at its ACTION.
 COMMITS = frozenset(i["code"] for i in TABLE["instructions"] if "commits" in i["flags"])
+# CUSTOM's sub-commands by name (the move subs, issue 27's identity sub), with their rules.
+CUSTOM_SUBS = {s["name"]: s for s in TABLE["custom_subs"]}
 
 INSTRUCTION_NAMES = {
     PING: "PING", READ: "READ", WRITE: "WRITE", REG_WRITE: "REG WRITE", ACTION: "ACTION",
