@@ -7,7 +7,30 @@
 #ifndef LOADER_H
 #define LOADER_H
 
-#include "servo.h"
+#include <stdbool.h>
+#include <stdint.h>
+
+struct board;
+struct frame;
+struct hal;
+struct servo;
+
+/* The loader's part of struct servo, set by loader.c alone, read through the two calls
+ * below (servo.c's loop, the host's node model). */
+struct loader {
+    uint8_t running;     /* update mode (loader_init), not the application */
+    uint8_t restart_due; /* a verified update: restart once its answer has left the wire */
+};
+
+static inline bool loader_running(const struct loader *l)
+{
+    return l->running != 0u;
+}
+
+static inline bool loader_restart_due(const struct loader *l)
+{
+    return l->restart_due != 0u;
+}
 
 /* The ID, baud code (register 4) and return delay update mode listens with: read
  * through the store without the register table (store_read; the bootloader has no room
@@ -25,7 +48,7 @@ void loader_init(struct servo *s, const struct board *b, struct hal *hal);
 
 /* Answer a §10 frame if it is addressed to this servo: run the session (update.h),
  * schedule the answer (always, ERR 0, after the return delay), and on a verified image
- * set s->restart (servo_poll restarts once the answer is out). Returns the enum
+ * mark the restart due (servo_poll restarts once the answer is out). Returns the enum
  * update_outcome. Shared by update mode and the application's dispatcher. */
 uint8_t loader_update_frame(struct servo *s, const struct frame *f);
 

@@ -8,6 +8,7 @@
 #include "board.h"
 #include "frame_rx.h"
 #include "link.h"
+#include "loader.h"
 #include "motion.h"
 #include "regs.h"
 #include "safety.h"
@@ -32,9 +33,7 @@ struct servo {
     struct hal *hal;
     const struct board *board;
     struct regs regs;
-    uint8_t fw_version; /* register 2: the running image's version */
-    uint8_t in_loader;  /* running update mode (loader.h), not the application */
-    uint8_t restart;    /* restart once the answer in progress has left the wire */
+    struct loader loader; /* update mode or the application; a restart due (loader.h) */
     uint8_t confirm_due; /* an answer has left the wire, or BOOT_CONFIRM_US have passed */
     uint8_t confirmed;  /* boot_confirm() has nothing left to do (boot.h) */
     uint32_t start_us;  /* power-up of the application */

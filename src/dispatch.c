@@ -22,9 +22,10 @@
 
 void dispatch_factory_reset(struct servo *s)
 {
+    uint8_t version = s->regs.mem[REG_FIRMWARE_VERSION]; /* the running image's, kept */
     command_reset(s);
     regs_reset(&s->regs); /* what differs from the factory value is marked for the store */
-    regs_set(&s->regs, REG_FIRMWARE_VERSION, s->fw_version);
+    regs_set(&s->regs, REG_FIRMWARE_VERSION, version);
     s->held.n = 0;
     traj_clear(&s->traj);
     motion_init(s);

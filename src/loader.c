@@ -5,6 +5,7 @@
 #include "hal.h"
 #include "loader.h"
 #include "proto.h"
+#include "servo.h"
 #include "store.h"
 
 uint8_t loader_update_frame(struct servo *s, const struct frame *f)
@@ -18,7 +19,7 @@ uint8_t loader_update_frame(struct servo *s, const struct frame *f)
     /* Always answered (whatever register 16 says), ERR 0, after the return delay. */
     link_answer(s, link_id(l), 0, ans, n, link_reply_at(l, f->end_us));
     if (out == UPDATE_RESTART)
-        s->restart = 1;
+        s->loader.restart_due = 1;
     return out;
 }
 
@@ -51,7 +52,7 @@ void loader_init(struct servo *s, const struct board *b, struct hal *hal)
     memset(s, 0, sizeof *s);
     s->hal = hal;
     s->board = b;
-    s->in_loader = 1;
+    s->loader.running = 1;
     loader_settings(hal, b, &set);
     regs_put8(&s->regs, REG_ID, set.id);
     regs_put8(&s->regs, REG_BAUD_RATE, set.baud_code);

@@ -27,9 +27,8 @@ void servo_init(struct servo *s, const struct board *b, struct hal *hal)
     memset(s, 0, sizeof *s);
     s->hal = hal;
     s->board = b;
-    s->fw_version = running_version(hal, b);
     regs_init(&s->regs, b);
-    regs_set(&s->regs, REG_FIRMWARE_VERSION, s->fw_version);
+    regs_set(&s->regs, REG_FIRMWARE_VERSION, running_version(hal, b));
     store_load(&s->store, hal, &s->regs, hal_clock_us(hal));
     frame_rx_init(&s->rx, link_baud(b, s->regs.mem[REG_BAUD_RATE]));
     link_latch(s);
@@ -50,7 +49,7 @@ void servo_rx_isr(struct servo *s, uint8_t byte)
 #ifdef SERVO_BOOTLOADER
 #define APPLICATION(s) false
 #else
-#define APPLICATION(s) ((s)->in_loader == 0u)
+#define APPLICATION(s) (!loader_running(&(s)->loader))
 #endif
 
 /* One pass of the main loop, the store's commit aside. */
@@ -85,7 +84,7 @@ static void servo_pass(struct servo *s, uint32_t now)
     }
     if (link_state(&s->link) == LINK_SENDING)
         return; /* half duplex: nothing arrives for us while we talk */
-    if (link_idle && s->restart) { /* a verified update: its ACK is out */
+    if (link_idle && loader_restart_due(&s->loader)) { /* a verified update: its ACK is out */
         if (app) {
             (void)regs_take_ee_changed(&s->regs); /* the flush commits whatever differs */
             store_flush(&s->store, &s->regs, now);

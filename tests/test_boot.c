@@ -201,7 +201,7 @@ static void test_good_image_confirms_at_first_answer(void **state)
 {
     (void)state;
     wire_factory(&w);
-    assert_false(w.s.in_loader);
+    assert_false(loader_running(&w.s.loader));
     assert_true(w.hal.watchdog_started); /* the bootloader's, before the jump */
     run(50000);
     assert_int_equal(unconfirmed(), 1);
@@ -246,7 +246,7 @@ static void test_good_image_never_falls_back(void **state)
     wire_factory(&w);
     uint32_t erases = w.hal.flash.erases[HAL_PAGE_BOOTREC];
     for (uint32_t i = 0; i < 400u; i++) {
-        assert_false(w.s.in_loader);
+        assert_false(loader_running(&w.s.loader));
         assert_int_equal(unconfirmed(), 1);
         if (i % 2u)
             assert_true(pinged(1));
@@ -286,7 +286,7 @@ static void test_hanging_image_leaves_update_mode_reachable(void **state)
         assert_int_equal(unconfirmed(), start);
     }
     run(SERVO_WATCHDOG_US);
-    assert_true(w.s.in_loader); /* the fourth boot: update mode */
+    assert_true(loader_running(&w.s.loader)); /* the fourth boot: update mode */
     assert_true(w.hal.watchdog_started);
     uint32_t r = w.resets;
     run(2000000);
@@ -297,7 +297,7 @@ static void test_hanging_image_leaves_update_mode_reachable(void **state)
     assert_true(w.hal.image_hung);
     assert_int_equal(unconfirmed(), 1);
     run(BOOT_STARTS_MAX * SERVO_WATCHDOG_US + SERVO_WATCHDOG_US / 2);
-    assert_true(w.s.in_loader);
+    assert_true(loader_running(&w.s.loader));
     assert_int_equal(unconfirmed(), BOOT_STARTS_MAX);
     /* What the host sees: PING unanswered, the §10 handshake answered 'C'. */
     assert_false(pinged(1));
@@ -305,13 +305,13 @@ static void test_hanging_image_leaves_update_mode_reachable(void **state)
     hal_host_image_build(img, IMG_LEN, arm->model_number, 8, 4);
     send_image(1, img, IMG_LEN);
     wire_step(&w, 50000);
-    assert_false(w.s.in_loader);
+    assert_false(loader_running(&w.s.loader));
     assert_false(w.hal.image_hung);
     assert_int_equal(unconfirmed(), 1);
     assert_int_equal(version_of(1), 8);
     assert_int_equal(unconfirmed(), 0); /* confirmed by that answer */
     wire_power_on(&w);
-    assert_false(w.s.in_loader);
+    assert_false(loader_running(&w.s.loader));
 }
 
 /* The same image programmed at the factory (no install to empty the record). */
@@ -328,7 +328,7 @@ static void test_hanging_factory_image(void **state)
     wire_power_on(&w);
     run(5 * SERVO_WATCHDOG_US);
     assert_int_equal(w.resets, BOOT_STARTS_MAX);
-    assert_true(w.s.in_loader);
+    assert_true(loader_running(&w.s.loader));
 }
 
 /* A start the power cut short (a robot switched off within BOOT_CONFIRM_US, before any
@@ -341,7 +341,7 @@ static void test_short_power_ups_never_lock_a_good_image(void **state)
     for (int i = 0; i < 3 * (int)BOOT_STARTS_MAX; i++) {
         run(1000000);
         wire_power_on(&w);
-        assert_false(w.s.in_loader);
+        assert_false(loader_running(&w.s.loader));
         assert_int_equal(unconfirmed(), 1); /* this start only */
     }
     assert_true(pinged(1));

@@ -25,7 +25,7 @@ static void power_on_without_application(void)
     hal_host_attach_board(&w.hal, w.board);
     w.resets = 0;
     wire_power_on(&w);
-    assert_true(w.s.in_loader);
+    assert_true(loader_running(&w.s.loader));
 }
 
 /* The application's settings, stored as the application stores them: set, then its main
@@ -90,7 +90,7 @@ static void update_mode_listens_where_the_application_stored(void **state)
         struct servo s;
         loader_init(&s, board_all[b], &w.hal);
         assert_int_equal(link_id(&s.link), 7);
-        assert_int_equal(s.in_loader, 1);
+        assert_int_equal(loader_running(&s.loader), 1);
     }
 }
 
@@ -130,7 +130,7 @@ static void the_application_answers_the_handshake_at_level_0(void **state)
 {
     (void)state;
     wire_factory(&w);
-    assert_false(w.s.in_loader);
+    assert_false(loader_running(&w.s.loader));
     uint8_t ans[64];
     const uint8_t level0[2] = {REG_STATUS_RETURN_LEVEL, 0};
     assert_int_not_equal(xfer(1, INS_WRITE, level0, 2, ans), 0); /* at the level before */

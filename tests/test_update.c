@@ -160,7 +160,7 @@ static void test_session_installs_new_image(void **state)
     hal_host_image_build(img, IMG_LEN, arm->model_number, 9, 1);
     send_image(7, img, IMG_LEN);
     wire_step(&w, 50000); /* the restart happens once the ACK is out */
-    assert_false(w.s.in_loader);
+    assert_false(loader_running(&w.s.loader));
     assert_true(app_holds(img, IMG_LEN));
     assert_true(pinged(7));
     assert_int_equal(version_of(7), 9);
@@ -229,7 +229,7 @@ static void assert_old_firmware_runs(void)
     assert_true(pinged(1));
     assert_int_equal(version_of(1), SERVO_FW_VERSION);
     wire_power_on(&w);
-    assert_false(w.s.in_loader);
+    assert_false(loader_running(&w.s.loader));
     assert_true(app_holds(factory_img, sizeof factory_img));
     assert_int_equal(version_of(1), SERVO_FW_VERSION);
 }
@@ -373,7 +373,7 @@ static void test_update_mode_when_application_damaged(void **state)
     write_reg(1, REG_ID, 9);
     w.hal.flash.mem[HAL_PAGE_APP + 3u][17] ^= 0x20u;
     wire_power_on(&w);
-    assert_true(w.s.in_loader);
+    assert_true(loader_running(&w.s.loader));
     assert_false(pinged(9));
     uint8_t ans[64];
     const uint8_t params[2] = {REG_ID, 1};
@@ -383,7 +383,7 @@ static void test_update_mode_when_application_damaged(void **state)
     hal_host_image_build(img, IMG_LEN, arm->model_number, 6, 8);
     send_image(9, img, IMG_LEN);
     wire_step(&w, 50000);
-    assert_false(w.s.in_loader);
+    assert_false(loader_running(&w.s.loader));
     assert_true(pinged(9));
     assert_int_equal(version_of(9), 6);
 }

@@ -58,11 +58,11 @@ bool node_set_id(struct node *n, uint8_t id)
     uint32_t t0 = n->hal.now_us;
     for (uint32_t t = 0; t <= NODE_SET_ID_US; t += 100u) {
         node_step(n, t0 + t);
-        if (!n->servo.in_loader && link_state(&n->servo.link) == LINK_IDLE && link_id(&n->servo.link) == id)
+        if (!loader_running(&n->servo.loader) && link_state(&n->servo.link) == LINK_IDLE && link_id(&n->servo.link) == id)
             break;
     }
     n->log_seen = n->hal.log_len; /* the answer went to nobody */
-    return !n->servo.in_loader && link_id(&n->servo.link) == id;
+    return !loader_running(&n->servo.loader) && link_id(&n->servo.link) == id;
 }
 
 const struct hal_tx_byte *node_tx_peek(const struct node *n)

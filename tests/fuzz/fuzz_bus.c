@@ -84,7 +84,7 @@ static void check_table(void)
     if (memcmp(checked, s->regs.mem, sizeof checked) == 0)
         return;
     memcpy(checked, s->regs.mem, sizeof checked);
-    if (s->in_loader || s->hal->image_hung)
+    if (loader_running(&s->loader) || s->hal->image_hung)
         return; /* no application runs: update mode (loader.h) keeps ID, baud and delay
                  * only; an image that hangs (the host model) keeps nothing */
     CHECK(identity_unchanged(s, factory));
@@ -107,7 +107,7 @@ static void power_up(void)
 {
     hal_host_reboot(&hal);
     servo_power_on(&servo, servo.board, &hal);
-    factory[REG_FIRMWARE_VERSION] = servo.fw_version; /* an installed update's */
+    factory[REG_FIRMWARE_VERSION] = servo.regs.mem[REG_FIRMWARE_VERSION]; /* an installed update's */
     motion_commanded = false;
     speed0_window = false;
 }

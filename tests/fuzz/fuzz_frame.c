@@ -119,7 +119,7 @@ static void power_up(void)
 {
     hal_host_reboot(&hal);
     servo_init(&servo, servo.board, &hal);
-    factory[REG_FIRMWARE_VERSION] = servo.fw_version;
+    factory[REG_FIRMWARE_VERSION] = servo.regs.mem[REG_FIRMWARE_VERSION];
     answer.pending = false;
 }
 

@@ -317,7 +317,7 @@ static void boot(void)
         app_good = -1;
         app_dirty = true;
     }
-    if (!servo.in_loader) { /* the bootloader started the application */
+    if (!loader_running(&servo.loader)) { /* the bootloader started the application */
         if (app_good < 0)
             app_good = slot_check(HAL_PAGE_APP);
         FUZZ_CHECK(app_good);

@@ -8,7 +8,7 @@ is touched only by that module.
    Reading a byte register (`s->regs.mem[REG_X]`) is allowed everywhere: the table is
    the interface between the modules.
 2. A member of `struct servo` that is a module's state (`rx`, `link`, `held`, `traj`,
-   `store`, `motion`, `safety`, `update`) is reached into (`s->link.state`,
+   `store`, `motion`, `safety`, `update`, `loader`) is reached into (`s->link.state`,
    `n->servo.rx.overruns`) only by its owner; everyone else hands the whole part to the
    owner's functions (`link_state(&s->link)`), as TinyUSB's class drivers keep their
    state to themselves.
@@ -33,6 +33,7 @@ OWNERS = {
     "motion": {"src/motion.c", "include/motion.h", "include/motion_mode.h"},
     "safety": {"src/safety.c", "include/safety.h"},
     "update": {"src/update.c", "include/update.h"},
+    "loader": {"src/loader.c", "include/loader.h"},
 }
 REGS_WRITERS = {"src/regs.c", "include/regs.h"}
 
