@@ -13,20 +13,9 @@
 #include <cmocka.h>
 
 #include "crc.h"
+#include "model_crc.h"
 
 static const uint8_t check_string[] = "123456789";
-
-/* CRC-32/ISO-HDLC (zlib, IEEE 802.3) one bit at a time, reflected. */
-static uint32_t model_crc32(const uint8_t *p, uint32_t n)
-{
-    uint32_t crc = 0xFFFFFFFFu;
-    for (uint32_t i = 0; i < n; i++) {
-        crc ^= p[i];
-        for (int b = 0; b < 8; b++)
-            crc = (crc >> 1) ^ ((crc & 1u) ? 0xEDB88320u : 0u);
-    }
-    return ~crc;
-}
 
 /* CRC-16, polynomial 0x1021, most significant bit first, no final xor. */
 static uint16_t model_crc16(uint16_t crc, const uint8_t *p, uint32_t n)

@@ -16,20 +16,10 @@
 #include "board.h"
 #include "hal_host.h"
 #include "image.h"
+#include "model_crc.h"
 
 static struct hal hal;
 static uint8_t img[IMAGE_MAX_BYTES];
-
-static uint32_t model_crc32(const uint8_t *p, uint32_t n)
-{
-    uint32_t crc = 0xFFFFFFFFu;
-    for (uint32_t i = 0; i < n; i++) {
-        crc ^= p[i];
-        for (int b = 0; b < 8; b++)
-            crc = (crc >> 1) ^ ((crc & 1u) ? 0xEDB88320u : 0u);
-    }
-    return ~crc;
-}
 
 static void put32(uint8_t *p, uint32_t v)
 {
