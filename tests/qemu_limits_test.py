@@ -13,7 +13,6 @@ The host keeps talking (READs every 20 ms), so the heartbeat never stops anythin
 """
 import os
 import signal
-import socket
 import sys
 import time
 
@@ -21,23 +20,16 @@ REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(REPO, "tools"))
 
 from qemu_servo import QemuServo, receive  # noqa: E402
+from rawbus import connect, packet, reporter  # noqa: E402
 
 DEADLINE_S = 120.0
 NAME = "qemu_limits_test"
 
 
-def fail(msg):
-    print(f"{NAME}: FAIL: {msg}", file=sys.stderr, flush=True)
-    sys.exit(1)
+fail, say = reporter(NAME)
 
 
-def say(msg):
-    print(f"{NAME}: {msg}", flush=True)
-
-
-def frame(*b):
-    body = [b[0], len(b)] + list(b[1:])
-    return bytes([0xD5, 0x5D] + body + [sum(body) & 0xFF])
+frame = packet  # an instruction packet (rawbus.py)
 
 
 class Arm:
@@ -45,8 +37,7 @@ class Arm:
 
     def __init__(self, url):
         port = int(url.rsplit(":", 1)[1])
-        self.sock = socket.create_connection(("127.0.0.1", port), timeout=2)
-        self.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self.sock = connect(port)
 
     def ask(self, ins, *params):
         self.sock.sendall(frame(1, ins, *params))

@@ -28,7 +28,6 @@ Usage: qemu_resync.py [rounds] [image.bin image.elf]  (default 150, build/qemu)
 import os
 import random
 import signal
-import socket
 import sys
 import time
 
@@ -36,6 +35,7 @@ REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(REPO, "tools"))
 
 from qemu_servo import QemuServo, receive  # noqa: E402
+from rawbus import connect, packet, reporter, status_packets  # noqa: E402
 
 NAME = "qemu_resync"
 DEADLINE_S = 150.0
@@ -45,41 +45,12 @@ CELLS = ((SPEED, 2), (ACC, 1), (DEC, 1))
 RANGES = ((0, 1), (1, 1), (2, 1), (1, 2), (0, 3))  # first cell, cells
 
 
-def fail(msg):
-    print(f"{NAME}: FAIL: {msg}", file=sys.stderr, flush=True)
-    sys.exit(1)
-
-
-def say(msg):
-    print(f"{NAME}: {msg}", flush=True)
-
-
-def packet(sid, ins, *par):
-    body = [sid, len(par) + 2, ins] + list(par)
-    return bytes([0xD5, 0x5D] + body + [sum(body) & 0xFF])
-
-
-def status_packets(data):
-    """The well-formed status packets in data, in order."""
-    out, i = [], 0
-    while i + 4 <= len(data):
-        if data[i] != 0xD5 or data[i + 1] != 0x5D:
-            i += 1
-            continue
-        n = 4 + data[i + 3]
-        p = data[i:i + n]
-        if len(p) == n and data[i + 3] >= 2 and sum(p[2:-1]) & 0xFF == p[-1]:
-            out.append(p)
-            i += n
-        else:
-            i += 1
-    return out
+fail, say = reporter(NAME)
 
 
 class Wire:
     def __init__(self, port):
-        self.sock = socket.create_connection(("127.0.0.1", port), timeout=2)
-        self.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self.sock = connect(port)
 
     def drain(self, seconds=0.0):
         got, _ = receive(self.sock, 4096, seconds)

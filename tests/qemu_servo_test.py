@@ -18,7 +18,6 @@ of `cmake --build --preset qemu` (build/qemu). The whole run is bounded (DEADLIN
 """
 import os
 import signal
-import socket
 import sys
 import time
 
@@ -27,6 +26,7 @@ sys.path.insert(0, os.path.join(REPO, "tools"))
 sys.path.insert(0, os.path.join(REPO, "tools", "python"))
 
 from qemu_servo import QemuServo, receive  # noqa: E402
+from rawbus import connect, packet, reporter, status  # noqa: E402
 from servobus import Bus  # noqa: E402
 from servobus.errors import MotionRefused, StatusError  # noqa: E402
 
@@ -35,13 +35,7 @@ NAME = "qemu_servo_test"
 ANSWER_S = 0.5  # longest wait for an answer: 8 ms delay + 7 bytes at 9600 + QEMU + TCP
 
 
-def fail(msg):
-    print(f"{NAME}: FAIL: {msg}", file=sys.stderr, flush=True)
-    sys.exit(1)
-
-
-def say(msg):
-    print(f"{NAME}: {msg}", flush=True)
+fail, say = reporter(NAME)
 
 
 def check(ok, msg):
@@ -49,15 +43,7 @@ def check(ok, msg):
         fail(msg)
 
 
-def frame(*b):
-    """Instruction packet: D5 5D, ID, LEN (inserted), INS, params, CHK."""
-    body = [b[0], len(b)] + list(b[1:])
-    return bytes([0xD5, 0x5D] + body + [sum(body) & 0xFF])
-
-
-def status(servo_id, err, *data):
-    body = [servo_id, len(data) + 2, err] + list(data)
-    return bytes([0xD5, 0x5D] + body + [sum(body) & 0xFF])
+frame = packet  # an instruction packet (rawbus.py)
 
 
 PING = frame(1, 0x01)
@@ -70,8 +56,7 @@ class Wire:
 
     def __init__(self, url):
         port = int(url.rsplit(":", 1)[1])
-        self.sock = socket.create_connection(("127.0.0.1", port), timeout=2)
-        self.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self.sock = connect(port)
         self.frames = 0
 
     def close(self):

@@ -19,24 +19,15 @@ import subprocess
 import sys
 import time
 
+from rawbus import connect, packet, reporter
+
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 NAME = "sim_burst"
 IDS = range(1, 9)
 SPEED, ACC, DEC = 32, 34, 35
 
 
-def fail(msg):
-    print(f"{NAME}: FAIL: {msg}", file=sys.stderr, flush=True)
-    sys.exit(1)
-
-
-def say(msg):
-    print(f"{NAME}: {msg}", flush=True)
-
-
-def packet(sid, ins, *par):
-    body = [sid, len(par) + 2, ins] + list(par)
-    return bytes([0xD5, 0x5D] + body + [sum(body) & 0xFF])
+fail, say = reporter(NAME)
 
 
 class Sim:
@@ -50,8 +41,7 @@ class Sim:
         if "listening on" not in line:
             fail(f"servo-sim did not start: {line!r}")
         port = int(line.split()[3].rsplit(":", 1)[1])
-        self.sock = socket.create_connection(("127.0.0.1", port), timeout=5)
-        self.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self.sock = connect(port, timeout=5)
         self.sock.settimeout(0.05)
 
     def drain(self):
