@@ -310,12 +310,13 @@ void dispatch_frame(struct servo *s, const struct frame *f)
     if (!level_answers(link_level(l), flags))
         return;
     if (res.err & ERR_INSTRUCTION) {
-        /* A code that reads as an ERR byte reporting an error (bit 7 clear, bit 4 or 5
-         * set; no instruction has one) is another servo's error answer at this ID
-         * (duplicate IDs): answering it made two such servos answer each other for ever,
-         * the bus never free again and their heartbeats fed by it (docs/decisions.md).
-         * (code & 0xB0) is then 0x10, 0x20 or 0x30: one subtraction, one compare. */
-        bool echo = (uint8_t)((f->buf[2] & 0xB0u) - 0x10u) < 0x30u;
+        /* A frame of an error answer's shape (no parameters, the code an ERR byte
+         * reporting an error: bit 7 clear, bit 4 or 5 set; no instruction has one) is
+         * another servo's error answer at this ID (duplicate IDs): answering it made two
+         * such servos answer each other for ever, the bus never free again and their
+         * heartbeats fed by it (docs/decisions.md). (code & 0xB0) is then 0x10, 0x20 or
+         * 0x30: one subtraction, one compare. */
+        bool echo = n == 0u && (uint8_t)((f->buf[2] & 0xB0u) - 0x10u) < 0x30u;
         if (quiet_errors || echo || !link_answers_instruction_errors(l))
             return; /* not reported: silence, so the host never mistakes it for success */
         link_answer(s, id, (uint8_t)(safety_err(&s->safety) | ERR_INSTRUCTION), 0, 0, at);

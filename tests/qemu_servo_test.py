@@ -121,8 +121,10 @@ def bus_group(q):
         w.ask(frame(1, 0x02, 48, 5), status(1, 0x20), "READ past the table")
         w.ask(frame(1, 0x03, 42, 1), status(1, 0x20), "WRITE of read-only register 42")
         w.ask(frame(1, 0x4E), status(1, 0x20), "unknown instruction 0x4E")
-        # 0x7E reads as an error answer's ERR byte: silent (docs/decisions.md, duplicate IDs)
-        w.silent(frame(1, 0x7E), "unknown instruction 0x7E (an ERR byte's shape)")
+        # 0x7E with no parameter is an error answer's shape: silent (docs/decisions.md,
+        # duplicate IDs); with a parameter it is an instruction error as §3.1 says
+        w.silent(frame(1, 0x7E), "unknown instruction 0x7E (an error answer's shape)")
+        w.ask(frame(1, 0x7E, 0x00), status(1, 0x20), "unknown instruction 0x7E with a parameter")
         w.silent(frame(2, 0x01), "PING to ID 2 (nobody)")
         say("errors: checksum ERR 0x10 (not executed), instruction ERR 0x20, other ID silent")
 

@@ -761,6 +761,16 @@ static void undefined_instruction_refused(void **state)
     const uint8_t ins[] = {0x00, 0x08, 0x0C, 0x80, 0x82, 0x84, 0xFE};
     for (size_t i = 0; i < sizeof ins; i++)
         assert_status(cmd(1, ins[i], 0, 0), 1, ERR_INSTRUCTION);
+    /* The codes that read as an ERR byte reporting an error (0x10-0x3F, 0x50-0x7F) are
+     * refused as §3.1 says whenever the frame has parameters; only the exact shape of an
+     * error answer (no parameters) goes unanswered: it is another servo's error answer
+     * at this ID (docs/decisions.md, duplicate IDs). */
+    const uint8_t errlike[] = {0x10, 0x20, 0x21, 0x3F, 0x50, 0x60, 0x7E};
+    const uint8_t one = 0x00;
+    for (size_t i = 0; i < sizeof errlike; i++) {
+        assert_status(cmd(1, errlike[i], &one, 1), 1, ERR_INSTRUCTION);
+        assert_silent(cmd(1, errlike[i], 0, 0));
+    }
 }
 
 /* dispatch_frame() on a hand-built frame: what the main loop hands over. */
