@@ -12,15 +12,14 @@ qemu_servo_test.py runs it): the angle limits hold whatever runs when they chang
 The host keeps talking (READs every 20 ms), so the heartbeat never stops anything here.
 """
 import os
-import signal
 import sys
 import time
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(REPO, "tools"))
 
-from qemu_servo import QemuServo, receive  # noqa: E402
-from rawbus import connect, packet, reporter  # noqa: E402
+from qemu_servo import receive  # noqa: E402
+from rawbus import connect, on_qemu, packet, reporter  # noqa: E402
 
 DEADLINE_S = 120.0
 NAME = "qemu_limits_test"
@@ -135,33 +134,20 @@ def speed_mode_left(arm):
     say(f"speed mode left at about 120 deg/s: stopped at {pos} within 0..200, holds")
 
 
+def run(q):
+    arm = Arm(q.url)
+    arm.write(24, 1)  # homing: switch 1 at 0, switch 2 at 420
+    seen = arm.watch(40, lambda s: False if s[1] else arm.ask(0x02, 24, 1)[0] >> 4 != 1)
+    status = arm.ask(0x02, 24, 1)[0] >> 4
+    if status != 2:
+        fail(f"homing ended in status {status}")
+    say(f"homed: limits {seen[-1][2]}..{seen[-1][3]}")
+    narrowed_mid_move(arm)
+    speed_mode_left(arm)
+
+
 def main():
-    signal.signal(signal.SIGALRM, lambda *_: fail(f"over {DEADLINE_S:.0f} s"))
-    signal.setitimer(signal.ITIMER_REAL, DEADLINE_S)
-    t0 = time.monotonic()
-    try:
-        q = QemuServo()
-    except (FileNotFoundError, RuntimeError) as e:
-        fail(str(e))
-    try:
-        if not q.wait_ready():
-            fail("the image did not answer PING within 10 s of boot")
-        arm = Arm(q.url)
-        arm.write(24, 1)  # homing: switch 1 at 0, switch 2 at 420
-        seen = arm.watch(40, lambda s: False if s[1] else arm.ask(0x02, 24, 1)[0] >> 4 != 1)
-        status = arm.ask(0x02, 24, 1)[0] >> 4
-        if status != 2:
-            fail(f"homing ended in status {status}")
-        say(f"homed: limits {seen[-1][2]}..{seen[-1][3]}")
-        narrowed_mid_move(arm)
-        speed_mode_left(arm)
-        if not q.alive():
-            fail("QEMU exited: the MCU reset or faulted")
-    finally:
-        out = q.stop()
-        if out:
-            say("QEMU said: " + out)
-    say(f"PASS ({time.monotonic() - t0:.0f} s)")
+    on_qemu(NAME, DEADLINE_S, run)
 
 
 if __name__ == "__main__":

@@ -27,15 +27,14 @@ Usage: qemu_resync.py [rounds] [image.bin image.elf]  (default 150, build/qemu)
 """
 import os
 import random
-import signal
 import sys
 import time
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(REPO, "tools"))
 
-from qemu_servo import QemuServo, receive  # noqa: E402
-from rawbus import connect, packet, reporter, status_packets  # noqa: E402
+from qemu_servo import receive  # noqa: E402
+from rawbus import connect, on_qemu, packet, reporter, status_packets  # noqa: E402
 
 NAME = "qemu_resync"
 DEADLINE_S = 150.0
@@ -257,16 +256,8 @@ def property_run(w, rounds, seed):
 def main():
     args = sys.argv[1:]
     rounds = int(args.pop(0)) if args and args[0].isdigit() else 150
-    signal.signal(signal.SIGALRM, lambda *_: fail(f"over {DEADLINE_S:.0f} s"))
-    signal.setitimer(signal.ITIMER_REAL, DEADLINE_S)
-    t0 = time.monotonic()
-    try:
-        q = QemuServo(*args)
-    except (FileNotFoundError, RuntimeError) as e:
-        fail(str(e))
-    try:
-        if not q.wait_ready():
-            fail("the image did not answer PING within 10 s of boot")
+
+    def run(q):
         w = Wire(q.port)
         # Return delay 1 (500 us: a stray byte after a request is over before the answer
         # starts); checksum errors not answered (register 18 bit 4: a broadcast damaged
@@ -278,13 +269,7 @@ def main():
         time.sleep(0.01)
         regressions(w)
         property_run(w, rounds, 0x25)
-        if not q.alive():
-            fail("QEMU exited: the MCU reset or faulted")
-    finally:
-        out = q.stop()
-        if out:
-            say("QEMU said: " + out)
-    say(f"PASS ({time.monotonic() - t0:.0f} s)")
+    on_qemu(NAME, DEADLINE_S, run, *args)
 
 
 if __name__ == "__main__":

@@ -17,7 +17,6 @@ Usage: qemu_servo_test.py [group ...]  (groups: bus motion; default both) with t
 of `cmake --build --preset qemu` (build/qemu). The whole run is bounded (DEADLINE_S).
 """
 import os
-import signal
 import sys
 import time
 
@@ -25,8 +24,8 @@ REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(REPO, "tools"))
 sys.path.insert(0, os.path.join(REPO, "tools", "python"))
 
-from qemu_servo import QemuServo, receive  # noqa: E402
-from rawbus import connect, packet, reporter, status  # noqa: E402
+from qemu_servo import receive  # noqa: E402
+from rawbus import connect, on_qemu, packet, reporter, status  # noqa: E402
 from servobus import Bus  # noqa: E402
 from servobus.errors import MotionRefused, StatusError  # noqa: E402
 
@@ -321,25 +320,13 @@ def _try_clear(bus):
 
 def main():
     groups = sys.argv[1:] or ["bus", "motion"]
-    signal.signal(signal.SIGALRM, lambda *_: fail(f"over {DEADLINE_S:.0f} s"))
-    signal.setitimer(signal.ITIMER_REAL, DEADLINE_S)
-    t0 = time.monotonic()
-    try:
-        q = QemuServo()
-    except (FileNotFoundError, RuntimeError) as e:
-        fail(str(e))
-    try:
-        if not q.wait_ready():
-            fail("the image did not answer PING within 10 s of boot")
+
+    def run(q):
         say(" ".join(q.cmd))
         for g in groups:
             {"bus": bus_group, "motion": motion_group}[g](q)
             check(q.alive(), f"QEMU exited during {g}: the MCU reset or faulted")
-    finally:
-        out = q.stop()
-        if out:
-            say("QEMU said: " + out)
-    say(f"PASS ({time.monotonic() - t0:.0f} s)")
+    on_qemu(NAME, DEADLINE_S, run)
 
 
 if __name__ == "__main__":

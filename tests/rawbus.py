@@ -53,3 +53,32 @@ def reporter(name):
     def say(msg):
         print(f"{name}: {msg}", flush=True)
     return fail, say
+
+
+def on_qemu(name, deadline_s, body, *qemu_args):
+    """Run body(q) against one QemuServo (tools/qemu_servo.py; qemu_args: image and ELF)
+    booted and answering PING, the whole run bounded by deadline_s; fail on anything the
+    MCU does not survive (QEMU exits on a reset or fault), print QEMU's own words, then
+    PASS with the time taken."""
+    import signal
+    import time
+    from qemu_servo import QemuServo  # tools/ on sys.path: the QEMU tests put it there
+    fail, say = reporter(name)
+    signal.signal(signal.SIGALRM, lambda *_: fail(f"over {deadline_s:.0f} s"))
+    signal.setitimer(signal.ITIMER_REAL, deadline_s)
+    t0 = time.monotonic()
+    try:
+        q = QemuServo(*qemu_args)
+    except (FileNotFoundError, RuntimeError) as e:
+        fail(str(e))
+    try:
+        if not q.wait_ready():
+            fail("the image did not answer PING within 10 s of boot")
+        body(q)
+        if not q.alive():
+            fail("QEMU exited: the MCU reset or faulted")
+    finally:
+        out = q.stop()
+        if out:
+            say("QEMU said: " + out)
+    say(f"PASS ({time.monotonic() - t0:.0f} s)")
