@@ -137,6 +137,20 @@ class Page:
         raise AssertionError("timed out waiting for %s (last: %r; message bar: %r)" % (
             what, last, self.message()))
 
+    def download(self, buttons, patterns):
+        """Empty the download folder, click each export button, and return the file
+        that came for each glob pattern, in order, once it is there."""
+        for old in self.d.downloads.iterdir():
+            old.unlink()
+        for b in buttons:
+            self.click(b)
+        return [self.wait(lambda g=g: list(self.d.downloads.glob(g)), what="a file " + g)[0]
+                for g in patterns]
+
+    def lines(self, path):
+        """The lines of a downloaded text file, once it has any."""
+        return self.wait(lambda: path.read_text().splitlines(), what="the lines of " + path.name)
+
     def message(self):
         try:
             return self.text("message")

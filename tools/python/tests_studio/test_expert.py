@@ -97,15 +97,10 @@ def test_the_console_pauses_exports_and_asks_before_a_lock_out(tapped, page):
     assert p.text("con-info") == count and "paused" in count
     p.click("con-pause")
     p.wait(lambda: p.text("con-info") != count, what="the console running again")
-    for old in p.d.downloads.iterdir():
-        old.unlink()
-    p.click("con-csv")
-    p.click("con-hex")
-    csv = p.wait(lambda: list(p.d.downloads.glob("wire-*.csv")), what="the CSV")[0]
-    hexf = p.wait(lambda: list(p.d.downloads.glob("wire-*.hex.txt")), what="the hex")[0]
-    rows = p.wait(lambda: csv.read_text().splitlines(), what="the CSV's lines")
+    csv, hexf = p.download(["con-csv", "con-hex"], ["wire-*.csv", "wire-*.hex.txt"])
+    rows = p.lines(csv)
     assert rows[0] == "n,t_s,direction,id,instruction,decoded,err,answers,hex,servoctl"
-    lines = p.wait(lambda: hexf.read_text().splitlines(), what="the hex lines")
+    lines = p.lines(hexf)
     wire = {raw.hex(" ") for _, raw in t.tap.packets()}
     sent = [ln.split(" ", 2)[2] for ln in lines if " > " in ln]
     assert sent and all(h in wire for h in sent)
@@ -169,13 +164,8 @@ def test_any_register_is_plotted_at_the_rate_the_wire_allows(tapped, page):
     frozen = len(p.d.execute_script("return window.studio.expert.scope.t"))
     time.sleep(0.5)
     assert len(p.d.execute_script("return window.studio.expert.scope.t")) == frozen
-    for old in p.d.downloads.iterdir():
-        old.unlink()
-    p.click("scope-csv")
-    p.click("scope-png")
-    csv = p.wait(lambda: list(p.d.downloads.glob("registers-*.csv")), what="the CSV")[0]
-    png = p.wait(lambda: list(p.d.downloads.glob("registers-*.png")), what="the PNG")[0]
-    rows = p.wait(lambda: csv.read_text().splitlines(), what="the CSV's lines")
+    csv, png = p.download(["scope-csv", "scope-png"], ["registers-*.csv", "registers-*.png"])
+    rows = p.lines(csv)
     assert rows[0] == ("t_s,id1_moving_speed_degs,id2_moving_speed_degs,"
                        "id1_present_speed_degs,id2_present_speed_degs")
     assert len(rows) == frozen + 1
@@ -260,10 +250,7 @@ def test_configuration_files_save_restore_and_diff(tapped, page, tmp_path):
     t, p = opened(tapped, page, "config")
     status, _ = t.api.post("/api/write", {"id": 2, "name": "return_delay", "value": 40})
     assert status == 200
-    for old in p.d.downloads.iterdir():
-        old.unlink()
-    p.click("cfg-save")
-    f = p.wait(lambda: list(p.d.downloads.glob("servo-2-foot*.json")), what="the file")[0]
+    f, = p.download(["cfg-save"], ["servo-2-foot*.json"])
     doc = p.wait(lambda: json.loads(f.read_text()), what="the JSON")
     assert (doc["variant"], doc["firmware_version"], doc["settings"]["return_delay"]) == \
         ("foot", 1, 40)

@@ -111,13 +111,8 @@ def test_a_move_completes_and_the_plot_updates(sim_factory, studio_factory, page
                     what="the plot paused")
     time.sleep(0.5)
     assert plot_info(p)[0] == frozen and p.text("plot-pause") == "Resume"
-    for old in p.d.downloads.iterdir():
-        old.unlink()
-    p.click("plot-csv")
-    p.click("plot-png")
-    csv = p.wait(lambda: list(p.d.downloads.glob("servo-2-*.csv")), what="the CSV file")[0]
-    png = p.wait(lambda: list(p.d.downloads.glob("servo-2-*.png")), what="the PNG file")[0]
-    rows = p.wait(lambda: csv.read_text().splitlines(), what="the CSV's lines")
+    csv, png = p.download(["plot-csv", "plot-png"], ["servo-2-*.csv", "servo-2-*.png"])
+    rows = p.lines(csv)
     assert rows[0] == "t_s,position_deg,goal_deg,speed_deg_s,temperature_c,load"
     assert len(rows) == frozen + 1
     assert abs(float(rows[-1].split(",")[1]) - 200) <= 1
