@@ -22,6 +22,7 @@ int boot_main(void); /* boot_main.c's main(), renamed for the test */
 #define APP0 0x08002000u
 #define STAGING0 0x08008800u
 #define BOOTREC 0x08001C00u
+#define STAGING0 0x08008800u
 #define IMAGE_BYTES 3000u
 
 static jmp_buf stopped;
@@ -182,6 +183,39 @@ static void without_an_application_it_answers_the_update_handshake(void **state)
     no_violation();
 }
 
+/* ---- An install the FPEC refuses ---------------------------------------------------- */
+
+/* The application slot's second 4 KiB is write-protected (WRPRTERR at its first page):
+ * the install stops half-way, the slot holds neither image, and the bootloader stays in
+ * update mode, the driver enable low, the staged copy kept. With the protection gone,
+ * the next boot installs it and starts it. */
+static void a_write_protected_install_leaves_update_mode_then_completes(void **state)
+{
+    (void)state;
+    static uint8_t staged[5000];
+    board_with_application();
+    port_image_build(staged, sizeof staged, BOARD_MODEL_ARM, 8, 2);
+    program_directly(STAGING0, staged, sizeof staged);
+    model.fpec.mem[STAGING0 - MODEL_FLASH_BASE + 25u * 1024u + IMAGE_MARK_OFFSET] = 0;
+    model.fpec.mem[STAGING0 - MODEL_FLASH_BASE + 25u * 1024u + IMAGE_MARK_OFFSET + 1u] = 0;
+    model.fpec.wrpr = ~(1u << 3); /* 0x08003000-0x08003FFF */
+    assert_int_equal(run_bootloader(MODEL_MS(200)), MODEL_EXIT_DEADLINE);
+    /* The first 4 KiB copied, the next page refused: the slot is neither image. */
+    assert_int_equal(memcmp(model_flash(APP0), staged, 4096), 0);
+    assert_true(memcmp(model_flash(APP0 + 4096u), staged + 4096, sizeof staged - 4096u) != 0);
+    assert_true(model.fpec.sr & FLASH_SR_WRPRTERR);
+    assert_int_equal(model_pin_state(BOARD_PIN_RS485_DE), MODEL_PIN_LOW);
+    assert_int_equal(model_pin_state(BOARD_PIN_DRIVER_EN), MODEL_PIN_LOW);
+    assert_int_equal(memcmp(model_flash(STAGING0), staged, sizeof staged), 0);
+    assert_true(model.fpec.cr & FLASH_CR_LOCK);
+    no_violation();
+    model.fpec.wrpr = 0xFFFFFFFFu;
+    model_reset(MODEL_RESET_POWER);
+    assert_int_equal(run_bootloader(0), MODEL_EXIT_JUMP);
+    assert_int_equal(memcmp(model_flash(APP0), staged, sizeof staged), 0);
+    no_violation();
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -189,6 +223,7 @@ int main(void)
         cmocka_unit_test(starts_the_application_with_the_watchdog_running),
         cmocka_unit_test(three_unconfirmed_starts_keep_it_in_update_mode),
         cmocka_unit_test(without_an_application_it_answers_the_update_handshake),
+        cmocka_unit_test(a_write_protected_install_leaves_update_mode_then_completes),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
