@@ -325,6 +325,12 @@ static void gpio_modes_and_bsrr(void **state)
     wr(GPIOA_CRH, 0x44484444u);
     wr(GPIOA_ODR, 1u << 12);
     assert_int_equal(model_pin_state(0x0C), MODEL_PIN_PULL_UP);
+    /* Open-drain output (CNF 01): a 0 pulls the pin low, a 1 lets it go (RM0008 §9.1.8):
+     * a driver enable on it would float, not go high. */
+    wr(GPIOA_CRH, 0x44464444u);
+    assert_int_equal(model_pin_state(0x0C), MODEL_PIN_FLOATING);
+    wr(GPIOA_BSRR, 1u << 28);
+    assert_int_equal(model_pin_state(0x0C), MODEL_PIN_LOW);
 }
 
 int main(void)
