@@ -1,6 +1,6 @@
 /* uart.c - USART1, half duplex through an RS485 transceiver: every received byte goes
- * to servo_rx_isr_at() from the interrupt; a reply is sent from the caller's buffer by the
- * same interrupt (TXE, then TC), with the driver enable asserted from the first byte
+ * to servo_rx_isr_at() from the interrupt; a reply is sent from the caller's buffer by
+ * the same interrupt (TXE, then TC), with the driver enable asserted from the first byte
  * until the last stop bit has left (TC). While sending, received bytes are the echo of
  * our own (single-wire or RE-enabled transceivers) and are dropped.
  *

@@ -244,7 +244,8 @@ static void a_write_protected_install_leaves_update_mode_then_completes(void **s
     assert_int_equal(run_bootloader(MODEL_MS(200)), MODEL_EXIT_DEADLINE);
     /* The first 4 KiB copied, the next page refused: the slot is neither image. */
     assert_int_equal(memcmp(model_flash(APP0), staged, 4096), 0);
-    assert_true(memcmp(model_flash(APP0 + 4096u), staged + 4096, sizeof staged - 4096u) != 0);
+    uint32_t rest = sizeof staged - 4096u;
+    assert_true(memcmp(model_flash(APP0 + 4096u), &staged[4096], rest) != 0);
     assert_true(model.fpec.sr & FLASH_SR_WRPRTERR);
     assert_int_equal(model_pin_state(BOARD_PIN_RS485_DE), MODEL_PIN_LOW);
     assert_int_equal(model_pin_state(BOARD_PIN_DRIVER_EN), MODEL_PIN_LOW);
