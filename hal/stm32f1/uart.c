@@ -1,6 +1,6 @@
 /* uart.c - USART1, half duplex through an RS485 transceiver: every received byte goes
- * to servo_rx_isr() from the interrupt; a reply is sent from the caller's buffer by the
- * same interrupt (TXE, then TC), with the driver enable asserted from the first byte
+ * to servo_rx_isr_at() from the interrupt; a reply is sent from the caller's buffer by
+ * the same interrupt (TXE, then TC), with the driver enable asserted from the first byte
  * until the last stop bit has left (TC). While sending, received bytes are the echo of
  * our own (single-wire or RE-enabled transceivers) and are dropped.
  *
@@ -33,16 +33,6 @@ static RAMFUNC void tx_step(struct hal *h)
     }
 }
 
-/* 1: the byte's arrival time is read here (rx_clock_us) and handed to the core, and the
- * transmit step is skipped while nothing is sent: about 30 instructions per byte fewer
- * than servo_rx_isr() calling hal_clock_us(). 0 (the bootloader, for its flash target,
- * docs/update.md): 36 bytes less. */
-#ifdef SERVO_BOOTLOADER
-#define RX_FAST 0
-#else
-#define RX_FAST 1
-#endif
-
 /* The arrival time of a byte, in this interrupt: hal_clock_us() without its pending-tick
  * case, which cannot arise here: SysTick outranks USART1 (PRIO_SYSTICK), so a wrap is
  * serviced at once, and a tick count that moved while the counter was read is read
@@ -68,17 +58,12 @@ RAMFUNC void usart1_handler(void)
             h->rx_overruns++; /* the byte after this one was lost (DR keeps this one) */
         if (sr & USART_SR_FE)
             h->rx_errors++; /* a broken byte (or a break): drop it */
-        else if (!h->tx_active) {
-            /* RXNE comes in the middle of the stop bit: the byte ends half a bit later,
-             * and the return delay (§2) counts from there. (The bootloader keeps the
-             * shorter path: its answers come half a bit early.) */
-            if (RX_FAST)
-                servo_rx_isr_at(h->servo, byte, rx_clock_us(h) + h->rx_half_bit_us);
-            else
-                servo_rx_isr(h->servo, byte);
-        }
+        else if (!h->tx_active) /* RXNE comes mid stop bit: the byte ends half a bit
+                                  * later, and the return delay (§2) counts from there
+                                  * (with delay 0, never over the host's stop bit) */
+            servo_rx_isr_at(h->servo, byte, rx_clock_us(h) + h->rx_half_bit_us);
     }
-    if (!RX_FAST || h->tx_active) /* TXEIE and TCIE are only ever on while sending */
+    if (h->tx_active) /* TXEIE and TCIE are only ever on while sending */
         tx_step(h);
 }
 
@@ -118,8 +103,7 @@ __attribute__((noinline)) static uint32_t brr_for(const struct hal *h, uint32_t 
 void hal_uart_set_baud(struct hal *h, uint32_t baud)
 {
     REG_WRITE(USART1->brr, brr_for(h, baud));
-    if (RX_FAST)
-        h->rx_half_bit_us = 500000u / baud;
+    h->rx_half_bit_us = 500000u / baud;
 }
 
 /* The rate BRR gives: PCLK2 / BRR (RM0008 §27.3.4). */

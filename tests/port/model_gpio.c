@@ -1,7 +1,8 @@
 /* model_gpio.c - GPIO ports A to C (RM0008 §9.2): CRL/CRH (a 4-bit MODE/CNF field per
  * pin; reset: floating input), ODR (also the pull direction of a pulled input), IDR,
- * BSRR (set wins over reset) and BRR. What the board sees on each pin, and the edges of
- * one pin the test watches (the RS485 driver enable). */
+ * BSRR (set wins over reset) and BRR; an open-drain output's 1 lets the pin go. What
+ * the board sees on each pin, and the edges of one pin the test watches (the RS485
+ * driver enable). */
 #include "model.h"
 #include "model_parts.h"
 
@@ -20,8 +21,10 @@ enum model_pin model_pin_state(uint8_t pin)
         return MODEL_PIN_FLOATING;
     uint32_t c = cfg(port, n), mode = c & 3u, cnf = c >> 2;
     bool high = (g->odr[port] >> n) & 1u;
-    if (mode != 0u) /* an output: CNF bit 1 selects the alternate function */
-        return (cnf & 2u) ? MODEL_PIN_ALT : high ? MODEL_PIN_HIGH : MODEL_PIN_LOW;
+    if (mode != 0u && (cnf & 2u)) /* an output: CNF bit 1 selects the alternate function */
+        return MODEL_PIN_ALT;
+    if (mode != 0u) /* CNF bit 0: open drain, whose 1 lets the pin go */
+        return !high ? MODEL_PIN_LOW : (cnf & 1u) ? MODEL_PIN_FLOATING : MODEL_PIN_HIGH;
     if (cnf == 2u)
         return high ? MODEL_PIN_PULL_UP : MODEL_PIN_PULL_DOWN;
     return MODEL_PIN_FLOATING; /* analog, floating input (or the reserved code) */
@@ -88,9 +91,9 @@ uint32_t gpio_read(uint32_t off, uint32_t bytes)
         for (uint32_t n = 0; n < 16u; n++) {
             uint32_t c = cfg(port, n), bit = 1u << n;
             bool high;
-            if (c & 3u)
+            if ((c & 3u) && ((c & 8u) || !(c & 4u) || !(g->odr[port] & bit)))
                 high = (c & 8u) ? true : (g->odr[port] & bit) != 0u; /* AF: idle high */
-            else if (g->ext_driven[port] & bit)
+            else if (g->ext_driven[port] & bit) /* an input, or an open drain let go */
                 high = (g->ext_high[port] & bit) != 0u;
             else
                 high = (c >> 2) == 2u && (g->odr[port] & bit); /* the pull, or nothing */

@@ -2,8 +2,9 @@
  * RLR's reset value 0xFFF, LSI / 4), 0xAAAA reloads the counter from RLR, 0x5555 opens
  * PR and RLR for writing (any other key closes them again). A written PR or RLR crosses
  * into the LSI domain for up to 5 LSI periods (PVU, RVU), then applies from the next
- * reload. The counter runs down at LSI / (4 << PR); at 0 the chip resets. Knobs: the
- * LSI's frequency (30 to 60 kHz), the hardware watchdog option (running from reset). */
+ * reload. The counter runs down at LSI / (4 << PR), /256 at most (PR 6 and 7); at 0
+ * the chip resets. Knobs: the LSI's frequency (30 to 60 kHz), the hardware watchdog
+ * option (running from reset). */
 #include "model.h"
 #include "model_parts.h"
 
@@ -29,7 +30,8 @@ static void settle(void)
 static void reload(void)
 {
     settle();
-    w->expires = model.now + (uint64_t)(w->rlr + 1u) * (4u << w->pr) * lsi_ticks();
+    uint32_t div = 4u << (w->pr < 6u ? w->pr : 6u); /* PR 110 and 111: both /256 */
+    w->expires = model.now + (uint64_t)(w->rlr + 1u) * div * lsi_ticks();
 }
 
 void iwdg_reset(uint8_t why)

@@ -16,12 +16,15 @@
 #include "hal_stm32f1.h"
 #include "model.h"
 #include "port_wire.h"
+#include "regs.h"
+#include "store.h"
 
 int boot_main(void); /* boot_main.c's main(), renamed for the test */
 
 #define APP0 0x08002000u
 #define STAGING0 0x08008800u
 #define BOOTREC 0x08001C00u
+#define STAGING0 0x08008800u
 #define IMAGE_BYTES 3000u
 
 static jmp_buf stopped;
@@ -170,15 +173,89 @@ static void without_an_application_it_answers_the_update_handshake(void **state)
         assert_int_equal(model.usart.tx[i].byte, want[i]);
         assert_true(model.usart.tx[i].de_all_along);
     }
-    /* After the return delay (the arm's 16 x 500 us), counted in the bootloader from the
-     * last byte's RXNE, the middle of its stop bit (uart.c: half a bit early, 52 us at
-     * 9600; the application counts from the byte's end). Then back to back. */
-    uint64_t from_rxne = model.usart.tx[0].start - (sent - MODEL_HZ / 9600u / 2u);
-    assert_true(from_rxne >= MODEL_US(7999) && from_rxne <= MODEL_US(8030)); /* 1 us ticks */
+    /* After the return delay (the arm's 16 x 500 us), counted from the end of the last
+     * byte's stop bit, as the application counts it (uart.c). Then back to back. */
+    uint64_t after = model.usart.tx[0].start - sent;
+    assert_true(after >= MODEL_US(7999) && after <= MODEL_US(8030)); /* 1 us ticks */
     assert_int_equal(model.usart.tx[6].start - model.usart.tx[0].start,
                      6u * 10u * (MODEL_HZ / 9600u));
     /* The driver enable: released after the last stop bit, promptly. */
     assert_int_equal(model_pin_state(BOARD_PIN_RS485_DE), MODEL_PIN_LOW);
+    no_violation();
+}
+
+/* Return delay 0 stored (register 5: a host wanting the fastest answers): update mode
+ * answers as soon as it may, but never while the host's last stop bit is on the wire,
+ * where the two drivers would fight over the bus (RXNE comes half a bit, 52 us at 9600,
+ * before the stop bit ends). */
+static void with_return_delay_0_update_mode_never_answers_over_the_stop_bit(void **state)
+{
+    (void)state;
+    static struct regs r;
+    static struct store st;
+    model_init();
+    model.usart.de_pin = BOARD_PIN_RS485_DE;
+    model.gpio.watch = BOARD_PIN_RS485_DE;
+    memset(&hal_stm32, 0, sizeof hal_stm32);
+    regs_init(&r, &board_arm);
+    store_load(&st, &hal_stm32, &r, 0);
+    regs_set(&r, REG_RETURN_DELAY, 0);
+    (void)regs_take_ee_changed(&r);
+    store_sync(&st, &r, 0);
+    model_reset(MODEL_RESET_POWER);
+    uint8_t hs[8];
+    uint16_t n = enter_frame(hs, 1);
+    model.usart.wire_free = model.now + MODEL_MS(30);
+    model_wire_send(hs, n, 9600);
+    uint64_t sent = model.usart.wire_free;
+    assert_int_equal(run_bootloader(MODEL_MS(80)), MODEL_EXIT_DEADLINE);
+    assert_int_equal(model.usart.tx_len, 7);
+    assert_int_equal(model.usart.tx[4].byte, 0x00); /* ERR 0 */
+    uint64_t up = MODEL_NEVER;
+    for (uint32_t i = 0; i < model.gpio.edges && up == MODEL_NEVER; i++)
+        if (model.gpio.edge[i].at >= sent - MODEL_MS(1) &&
+            model.gpio.edge[i].state == MODEL_PIN_HIGH)
+            up = model.gpio.edge[i].at;
+    /* Within the clock's resolution (1 us) of the stop bit's end, on either side. */
+    if (up + MODEL_US(1) < sent)
+        fail_msg("driver enable up %llu us before the host's stop bit ended",
+                 (unsigned long long)((sent - up) / MODEL_US(1)));
+    assert_true(model.usart.tx[0].start + MODEL_US(1) >= sent);
+    assert_true(model.usart.tx[0].start <= sent + MODEL_US(10)); /* but at once */
+    no_violation();
+}
+
+/* ---- An install the FPEC refuses ---------------------------------------------------- */
+
+/* The application slot's second 4 KiB is write-protected (WRPRTERR at its first page):
+ * the install stops half-way, the slot holds neither image, and the bootloader stays in
+ * update mode, the driver enable low, the staged copy kept. With the protection gone,
+ * the next boot installs it and starts it. */
+static void a_write_protected_install_leaves_update_mode_then_completes(void **state)
+{
+    (void)state;
+    static uint8_t staged[5000];
+    board_with_application();
+    port_image_build(staged, sizeof staged, BOARD_MODEL_ARM, 8, 2);
+    program_directly(STAGING0, staged, sizeof staged);
+    model.fpec.mem[STAGING0 - MODEL_FLASH_BASE + 25u * 1024u + IMAGE_MARK_OFFSET] = 0;
+    model.fpec.mem[STAGING0 - MODEL_FLASH_BASE + 25u * 1024u + IMAGE_MARK_OFFSET + 1u] = 0;
+    model.fpec.wrpr = ~(1u << 3); /* 0x08003000-0x08003FFF */
+    assert_int_equal(run_bootloader(MODEL_MS(200)), MODEL_EXIT_DEADLINE);
+    /* The first 4 KiB copied, the next page refused: the slot is neither image. */
+    assert_int_equal(memcmp(model_flash(APP0), staged, 4096), 0);
+    uint32_t rest = sizeof staged - 4096u;
+    assert_true(memcmp(model_flash(APP0 + 4096u), &staged[4096], rest) != 0);
+    assert_true(model.fpec.sr & FLASH_SR_WRPRTERR);
+    assert_int_equal(model_pin_state(BOARD_PIN_RS485_DE), MODEL_PIN_LOW);
+    assert_int_equal(model_pin_state(BOARD_PIN_DRIVER_EN), MODEL_PIN_LOW);
+    assert_int_equal(memcmp(model_flash(STAGING0), staged, sizeof staged), 0);
+    assert_true(model.fpec.cr & FLASH_CR_LOCK);
+    no_violation();
+    model.fpec.wrpr = 0xFFFFFFFFu;
+    model_reset(MODEL_RESET_POWER);
+    assert_int_equal(run_bootloader(0), MODEL_EXIT_JUMP);
+    assert_int_equal(memcmp(model_flash(APP0), staged, sizeof staged), 0);
     no_violation();
 }
 
@@ -189,6 +266,8 @@ int main(void)
         cmocka_unit_test(starts_the_application_with_the_watchdog_running),
         cmocka_unit_test(three_unconfirmed_starts_keep_it_in_update_mode),
         cmocka_unit_test(without_an_application_it_answers_the_update_handshake),
+        cmocka_unit_test(a_write_protected_install_leaves_update_mode_then_completes),
+        cmocka_unit_test(with_return_delay_0_update_mode_never_answers_over_the_stop_bit),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -282,6 +282,28 @@ static void iwdg_keys_and_timeout(void **state)
     assert_false(model.iwdg.on); /* a reset stops it (no hardware option) */
 }
 
+/* RM0008 IWDG_PR: 110 and 111 both divide by 256 (there is no /512). RLR 0: one count,
+ * 256 / 40 kHz = 6.4 ms. */
+static void iwdg_prescaler_7_divides_by_256(void **state)
+{
+    (void)state;
+    model_init();
+    wr(IWDG_KR, 0xCCCCu);
+    wr(IWDG_KR, 0x5555u);
+    wr(IWDG_PR, 7u);
+    wr(IWDG_RLR, 0u);
+    model_run(MODEL_MS(1));
+    wr(IWDG_KR, 0xAAAAu);
+    uint64_t t0 = model.now;
+    int why = model_catch(stopped);
+    if (why == 0)
+        for (;;)
+            model_run(MODEL_US(100));
+    assert_int_equal(why, MODEL_EXIT_RESET);
+    assert_true(model.now - t0 >= MODEL_US(6400) - MODEL_US(100));
+    assert_true(model.now - t0 <= MODEL_US(6400) + MODEL_US(100));
+}
+
 /* ---- GPIO ------------------------------------------------------------------------- */
 
 /* Reset: every pin a floating input. BSRR sets and resets (set wins), CRH selects. */
@@ -303,6 +325,12 @@ static void gpio_modes_and_bsrr(void **state)
     wr(GPIOA_CRH, 0x44484444u);
     wr(GPIOA_ODR, 1u << 12);
     assert_int_equal(model_pin_state(0x0C), MODEL_PIN_PULL_UP);
+    /* Open-drain output (CNF 01): a 0 pulls the pin low, a 1 lets it go (RM0008 §9.1.8):
+     * a driver enable on it would float, not go high. */
+    wr(GPIOA_CRH, 0x44464444u);
+    assert_int_equal(model_pin_state(0x0C), MODEL_PIN_FLOATING);
+    wr(GPIOA_BSRR, 1u << 28);
+    assert_int_equal(model_pin_state(0x0C), MODEL_PIN_LOW);
 }
 
 int main(void)
@@ -315,6 +343,7 @@ int main(void)
         cmocka_unit_test(usart_receive_flags),
         cmocka_unit_test(usart_transmit_flags),
         cmocka_unit_test(iwdg_keys_and_timeout),
+        cmocka_unit_test(iwdg_prescaler_7_divides_by_256),
         cmocka_unit_test(gpio_modes_and_bsrr),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

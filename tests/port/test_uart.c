@@ -239,6 +239,43 @@ static void on_the_64_mhz_fall_back_every_code_works(void **state)
     port_no_violation();
 }
 
+/* Code 10 stored on the crystal, then a power-on with neither crystal nor PLL: the rate
+ * comes out at BRR 16, 500 kBd (README). A host at 500000 finds the servo there and
+ * writes code 5, which it takes; the servo then answers at 256000. */
+static void a_stored_top_code_on_the_8_mhz_fall_back_is_found_at_500_kbd(void **state)
+{
+    (void)state;
+    app_up(true, true);
+    assert_true(loop_for(MODEL_MS(20)));
+    uint8_t f[16];
+    const uint8_t baud10[] = {REG_BAUD_RATE, 10};
+    port_host_send(f, frame(f, INS_WRITE, baud10, 2), 9600);
+    assert_true(loop_for(MODEL_MS(2000))); /* answered, switched, stored */
+    assert_int_equal(model_usart_bps(), 1800000u);
+    model.rcc.crystal = false;
+    model.rcc.pll_locks = false;
+    model_reset(MODEL_RESET_POWER);
+    port_application();
+    assert_int_equal(h->clock_source, CLOCK_HSI);
+    assert_true(loop_for(MODEL_MS(100)));
+    assert_int_equal(model_usart_bps(), 500000u);
+    uint32_t from = model.usart.tx_len;
+    port_host_send(f, frame(f, INS_PING, 0, 0), 500000);
+    assert_true(loop_for(MODEL_MS(20)));
+    port_assert_answer(from, PING_ANSWER, sizeof PING_ANSWER);
+    const uint8_t baud5[] = {REG_BAUD_RATE, 5};
+    from = model.usart.tx_len;
+    port_host_send(f, frame(f, INS_WRITE, baud5, 2), 500000);
+    assert_true(loop_for(MODEL_MS(40)));
+    static const uint8_t ok[] = {0xD5, 0x5D, 0x01, 0x02, 0x00, 0x03};
+    port_assert_answer(from, ok, sizeof ok);
+    from = model.usart.tx_len;
+    port_host_send(f, frame(f, INS_PING, 0, 0), 256000);
+    assert_true(loop_for(MODEL_MS(20)));
+    port_assert_answer(from, PING_ANSWER, sizeof PING_ANSWER);
+    port_no_violation();
+}
+
 /* ---- While the flash is busy; the watchdog ------------------------------------------- */
 
 /* A PING arrives during a 300 ms erase: the receive interrupt runs all along (the wait
@@ -297,6 +334,7 @@ int main(void)
         cmocka_unit_test(brr_gives_the_rate_the_driver_reports),
         cmocka_unit_test(on_the_8_mhz_fall_back_the_top_codes_are_refused),
         cmocka_unit_test(on_the_64_mhz_fall_back_every_code_works),
+        cmocka_unit_test(a_stored_top_code_on_the_8_mhz_fall_back_is_found_at_500_kbd),
         cmocka_unit_test(a_frame_arriving_during_a_300_ms_erase_is_answered),
         cmocka_unit_test(the_main_loop_feeds_the_watchdog_and_a_hang_resets),
     };
