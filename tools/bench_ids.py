@@ -4,6 +4,10 @@ servos that all sit at ID 1 (factory-fresh), N = 10, 50, 253, at 9600 and at 921
 (code 8, the table's nearest to 1 Mbaud), through servo-sim and the SDK in real time,
 against the wire time of the frames it needs (every byte sent and received, plus the
 ENUMERATE answer windows, which a host must wait out whether or not a slot answers).
+First, on a mixed bus (host nodes, and QEMU arm images when build/qemu has them), the
+coordinated start skew of a SYNC WRITE and of a broadcast ACTION, and the end skew of one
+trajectory loaded and started in every servo by broadcast (limit: one control tick for
+host nodes, which share servo-sim's virtual clock; see trajectory()).
 BUILD_DIR holds servo-sim (default build/bench, else build/host). Called by
 tools/bench.sh (make bench). IDS_BENCH_N=10,50 limits the sizes."""
 
@@ -26,6 +30,9 @@ sys.path.insert(0, os.path.join(ROOT, "tools"))
 TICK_US = 1000  # the control tick (include/motion.h MOTION_TICK_US)
 MOVE = re.compile(r"servo-sim: ID (\d+) moving (\d) at (\d+) us")
 QEMU_UIDS = ("a1000000000000000000000e", "b2000000000000000000000e")
+# The trajectory every servo runs (angle in position units, speed in units/s): from the
+# homed end (420 on the arm) down through 300 to 150 without a stop, a reversal, then 250.
+TRAJECTORY = [(300, 120), (150, 120), (250, 60)]
 
 
 def start_sim(sim, n):
@@ -114,13 +121,101 @@ def polled_stops(bus, ids, timeout=5.0):
     return stop, cycle
 
 
+def homed(bus, ids, timeout=40.0):
+    """Poll register 24 of every servo in turn until each has done homing (2) or failed
+    (3): {ID: state}. Polling each one matters only with the heartbeat on (a servo not
+    addressed for 500 ms aborts its homing, section 9); the bench has it off."""
+    state, t_end = {}, time.monotonic() + timeout
+    while len(state) < len(ids) and time.monotonic() < t_end:
+        for i in ids:
+            if i not in state and bus.read(i, "homing") >> 4 in (2, 3):
+                state[i] = bus.read(i, "homing") >> 4
+        bus.pause(0.1)
+    return state
+
+
+def trajectory(bus, log, host_ids, qemu_ids):
+    """Issue 27's trajectory end skew: every servo (speed mode left by coordinated()) is
+    homed by one broadcast (position moves need the reference, register 49), which leaves
+    them all at the end of their travel; then one broadcast TRAJECTORY WRITE stores the
+    same points in every servo and one broadcast TRAJECTORY ACTION runs them. Register 42
+    stays 1 for the whole trajectory (it passes through points and stops at reversals
+    within one run), so its first switch to 0 after the start is the trajectory's end.
+
+    The limit, for host nodes: they share servo-sim's virtual clock and every one hears
+    the broadcast's last stop bit at the same instant, so each starts on its next control
+    tick (start skew <= 1 tick); each then runs the same firmware, plant and points from
+    the same homed state, tick by tick, so its run lasts the same whole number of ticks
+    and the end skew is at most the start skew: 1 tick. That holds while nothing else
+    differs between them, so the host does not address a host node during that run (the
+    QEMU images, on QEMU's own clock and seen from the bus only, are polled).
+
+    The run is then repeated with every servo polled, as a host watching its servos
+    would: each answer holds its node's main loop up to BUS_LOOP_US + 1/16 bit
+    (tools/sim/bus.c), its ticks sample the plant microseconds late, and the settle that
+    ends register 42 (the shaft at rest within the hold band) moves by whole ticks. That
+    figure is printed without a limit, beside the polled one of all servos."""
+    ids = sorted(host_ids + qemu_ids)
+    bus.send(P.BROADCAST, P.WRITE, bytes([24, 1]))  # homing; also leaves speed mode
+    state = homed(bus, ids)
+    if sorted(i for i, st in state.items() if st == 2) != ids:
+        print("!! trajectory: homing not done on every servo: %s" % (
+            {i: state.get(i, "timed out") for i in ids},))
+        return False
+    bus.trajectory_write(P.BROADCAST, TRAJECTORY)
+    bus.pause(0.1)
+    ok = True
+    for quiet in (True, False):
+        _, n = host_switches(log, host_ids, 1, 0)
+        bus.trajectory_action(P.BROADCAST)
+        bus.pause(0.2)
+        polled, cycle = polled_stops(bus, qemu_ids if quiet else ids, timeout=15.0)
+        t_end = time.monotonic() + 15.0
+        while len(host_switches(log, host_ids, 0, n)[0]) < len(host_ids) and \
+                time.monotonic() < t_end:
+            time.sleep(0.2)  # watching servo-sim's log: the bus stays quiet
+        bus.pause(0.2)
+        began, _ = host_switches(log, host_ids, 1, n)
+        ended, _ = host_switches(log, host_ids, 0, n)
+        ok &= len(began) == len(ended) == len(host_ids) and \
+            len(polled) == len(qemu_ids if quiet else ids)
+        if len(began) == len(ended) == len(host_ids):
+            start = max(began.values()) - min(began.values())
+            skew = max(ended.values()) - min(ended.values())
+            run_s = (min(ended.values()) - min(began.values())) / 1e6
+            if quiet:
+                over = start > TICK_US or skew > TICK_US
+                ok &= not over
+                print("bench ids: trajectory end skew %d us, %d points by broadcast TRAJECTORY "
+                      "WRITE + TRAJECTORY ACTION (%d host nodes, virtual clock, not addressed "
+                      "during the %.3f s run; start skew %d us; limit 1 tick = %d us)%s" % (
+                          skew, len(TRAJECTORY), len(host_ids), run_s, start, TICK_US,
+                          "  !! OVER" if over else ""))
+            else:
+                print("bench ids: trajectory end skew %d us with every servo polled during the "
+                      "%.3f s run (%d host nodes, virtual clock; start skew %d us; no limit: "
+                      "each answer delays its node's ticks by microseconds, which moves the "
+                      "settle)" % (skew, run_s, len(host_ids), start))
+        if not quiet and len(polled) == len(ids):
+            print("bench ids: trajectory end skew %d ms (all %d servos, %d on QEMU; polled, "
+                  "resolution %d ms)" % (
+                      round(1000 * (max(polled.values()) - min(polled.values()))), len(ids),
+                      len(qemu_ids), round(1000 * cycle)))
+    if not ok:
+        print("!! trajectory: not every servo ran it to its end, or host nodes over 1 tick "
+              "(see above)")
+    return ok
+
+
 def coordinated(sim):
     """Issue 27's coordinated start on the mixed bus: host nodes and (when the qemu image
     is built) QEMU-run arm images, all at ID 1, separated by fix_duplicates, then in speed
     mode (angle limits 0, register 49 = 1: no homing needed; heartbeat off) started by one SYNC WRITE
     and by REG WRITE + one broadcast ACTION, and stopped the other way. Host nodes report
     register 42's switches in virtual time (--report-moves): the skew between them is
-    exact. The images are seen from the bus only: their stop is polled."""
+    exact. The images are seen from the bus only: their stop is polled. Then a trajectory
+    on all of them (trajectory(): homed, one broadcast TRAJECTORY WRITE and ACTION) for
+    its end skew."""
     qemus, log = [], tempfile.NamedTemporaryFile("w+", suffix=".log", delete=False)
     try:
         try:
@@ -194,6 +289,7 @@ def coordinated(sim):
                               "QEMU; polled, resolution %d ms)" % (
                                   round(1000 * (max(polled.values()) - min(polled.values()))),
                                   stop_by, len(ids), len(qemu_ids), round(1000 * cycle)))
+                ok &= trajectory(bus, log.name, host_ids, qemu_ids)
         finally:
             p.terminate()
             p.wait()
