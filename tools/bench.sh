@@ -74,9 +74,10 @@ echo
 /usr/bin/python3 tools/bench_sim.py "$build"
 echo
 # Issue 27 (tools/bench_ids.py): the coordinated start on a mixed bus (host nodes and
-# two QEMU images, ~30 s), then 10, 50 and 253 factory-fresh servos enumerated and
-# separated at 9600 and 921600 baud, in real time: about 7 min in all, the 253 runs
-# 165 s (9600) and 110 s (921600) of it. IDS_BENCH_N=10,50 leaves 253 out.
+# two QEMU images), then a homing and the trajectory end skew (~40 s together), then 10,
+# 50 and 253 factory-fresh servos enumerated and separated at 9600 and 921600 baud, in
+# real time: about 7 min in all, the 253 runs 165 s (9600) and 110 s (921600) of it.
+# IDS_BENCH_N=10,50 leaves 253 out.
 /usr/bin/python3 tools/bench_ids.py "$build"
 /usr/bin/python3 tools/bench_studio.py "$build"
 echo
