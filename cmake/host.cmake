@@ -22,7 +22,7 @@ target_include_directories(hal_host PUBLIC hal hal/host include)
 target_compile_options(hal_host PRIVATE ${SERVO_WARNINGS})
 
 # Synthetic application images (hal_host_image_build): the core's CRC-32 stamps them.
-add_library(image_host STATIC hal/host/image_host.c hal/host/power_on.c)
+add_library(image_host STATIC hal/host/image_host.c hal/host/image_build.c hal/host/power_on.c)
 target_link_libraries(image_host PUBLIC servo_core hal_host)
 target_compile_options(image_host PRIVATE ${SERVO_WARNINGS})
 

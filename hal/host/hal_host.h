@@ -84,10 +84,8 @@ void hal_host_attach_board(struct hal *h, const struct board *b);
 /* Power cycle: the UART and clock state go, the flash stays (a cut is cleared). */
 void hal_host_reboot(struct hal *h);
 
-/* A synthetic application image (image.h layout) of len bytes for a board of this
- * model, with the given version; seed varies its content. len >= IMAGE_MIN_BYTES. */
-void hal_host_image_build(uint8_t *img, uint32_t len, uint16_t model, uint8_t version,
-                          uint32_t seed);
+/* Synthetic application images: hal_host_image_build(), hal_host_image_stamp(). */
+#include "image_build.h"
 
 /* Make img (len bytes, from hal_host_image_build) an image that hangs at start in the
  * host model (servo_power_on): its info block's reserved byte IMAGE_HOST_HANG, its CRC

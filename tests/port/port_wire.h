@@ -7,8 +7,8 @@
 #include <stdint.h>
 #include <string.h>
 
-#include "crc.h"
 #include "image.h"
+#include "host/image_build.h"
 #include "proto.h"
 
 static inline void port_put32(uint8_t *p, uint32_t v)
@@ -22,24 +22,10 @@ static inline void port_put32(uint8_t *p, uint32_t v)
 static inline void port_image_build(uint8_t *img, uint32_t len, uint16_t model_number,
                                     uint8_t version, uint32_t seed)
 {
-    uint32_t x = seed * 2654435761u + 0x9E3779B9u;
-    for (uint32_t i = 0; i < len; i++) {
-        x ^= x << 13;
-        x ^= x >> 17;
-        x ^= x << 5;
-        img[i] = (uint8_t)x;
-    }
+    hal_host_image_build(img, len, model_number, version, seed);
     port_put32(&img[0], 0x20001800u);
     port_put32(&img[4], 0x08002000u + 0x400u + (seed % 256u) * 4u + 1u);
-    uint8_t *info = &img[IMAGE_INFO_OFFSET];
-    port_put32(&info[IMAGE_OFF_MAGIC], IMAGE_MAGIC);
-    port_put32(&info[IMAGE_OFF_LENGTH], len);
-    port_put32(&info[IMAGE_OFF_CRC], 0);
-    info[IMAGE_OFF_MODEL] = (uint8_t)model_number;
-    info[IMAGE_OFF_MODEL + 1u] = (uint8_t)(model_number >> 8);
-    info[IMAGE_OFF_VERSION] = version;
-    info[IMAGE_OFF_RESERVED] = 0;
-    port_put32(&info[IMAGE_OFF_CRC], ~crc32_update(CRC32_INIT, img, len));
+    hal_host_image_stamp(img, len);
 }
 
 /* D5 5D id LEN ins params CHK (LEN = n + 2). */

@@ -27,7 +27,7 @@ progress=${PROGRESS_SECONDS:-10}
 read -r -a targets <<< "${FUZZ_TARGETS:-fuzz_frame fuzz_store fuzz_update fuzz_planner fuzz_bus}"
 out=build/fuzz
 srcs=(src/*.c board/boards.c board/*/board.c hal/host/hal_host.c hal/host/flash_sim.c hal/host/motor_sim.c
-      hal/host/image_host.c hal/host/power_on.c)
+      hal/host/image_host.c hal/host/image_build.c hal/host/power_on.c)
 defs=(-DREGS_WITH_TEXT=1 -DSERVO_FW_VERSION=1 -Iinclude -Ihal -Ihal/host)
 # UBSan without the checks ASan makes already (null, object-size) and without
 # pointer-overflow (pointer wrap-around, on every pointer step of the byte loops): a
