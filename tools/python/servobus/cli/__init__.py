@@ -63,6 +63,11 @@ def _fault_note(bus, args):
 
 
 def main(argv=None):
+    # Every line as it happens, into a pipe too (`servoctl move --wait | tee log`, a GUI
+    # reading its output): a progress line held in a buffer until exit tells nobody
+    # anything, and a Ctrl-C would find it unprinted.
+    if hasattr(sys.stdout, "reconfigure"):
+        sys.stdout.reconfigure(line_buffering=True)
     argv = sys.argv[1:] if argv is None else list(argv)
     # A negative value (-100, -45deg/s) is a value, not an option: a leading space keeps
     # argparse from taking it for one, and the value parsers ignore it.
