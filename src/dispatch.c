@@ -165,7 +165,8 @@ static uint8_t do_custom_move(struct servo *s, const uint8_t *p, uint8_t n,
 
 /* Issue 27's identity sub-command: ident.c answers at ID 0xFF, or not at all. Not
  * inlined: inlining it costs the arm image 56 B more. */
-__attribute__((noinline)) static uint8_t do_ident(struct servo *s, const uint8_t *p, uint8_t n, struct dispatch_result *res)
+__attribute__((noinline)) static uint8_t do_ident(struct servo *s, const uint8_t *p, uint8_t n,
+                                                  struct dispatch_result *res)
 {
     ident_frame(s, &p[1], (uint8_t)(n - 1u), res->broadcast, res->end_us);
     return 0;
