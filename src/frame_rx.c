@@ -159,6 +159,7 @@ static void inner_chk(struct frame_rx *rx, uint16_t q, uint8_t b, uint8_t s)
                     continue;
                 r.tag |= TAG_OK;
                 *rec_at(rx, w++) = r;
+                rx->prev = 0; /* a D5 5D ending on its checksum byte is its payload too */
                 break; /* every later record started inside this frame */
             }
             if ((uint16_t)(end - q) < next)
@@ -364,8 +365,9 @@ void frame_rx_byte(struct frame_rx *rx, uint8_t b, uint32_t now_us)
             event(rx, q, b, s, now_us);
     }
     /* After the head's byte: a header ending on the last byte of a head that failed
-     * starts the next; not on a good one's (head_over() cleared prev, the byte before
-     * this one): that D5 5D was its payload and checksum. One starting on its checksum
+     * starts the next; not on a good one's, the head's or one inside it (head_over() or
+     * inner_chk() cleared prev, the byte before this one): that D5 5D was its payload
+     * and checksum. One starting on its checksum
      * byte may be real (the byte the checksum stood in for was lost), so prev is this
      * byte after. Read once, here: a flag kept across the event cost 4 instructions on
      * every byte (qemu_cost.py). */

@@ -405,6 +405,52 @@ static void header_ending_on_a_good_frames_checksum_is_payload(void **state)
     assert_int_equal(rx.overruns, 0);
 }
 
+/* The same inside a frame that fails (fuzz_frame): the good frame ending in D5 5D is a
+ * candidate inside a damaged head, completes there, and waits for it. The D5 5D on its
+ * checksum byte is its payload too: as a candidate it outlived the head, became the head,
+ * and passing its checksum by chance took the eleven packets after it. */
+static void header_ending_on_an_inner_good_frames_checksum_is_payload(void **state)
+{
+    (void)state;
+    uint8_t p0[16], last[16], head[4] = {0xD5, 0x5D, 0x03, 0};
+    size_t n0 = 0;
+    for (uint32_t x = 0; x < 256u; x++) {
+        n0 = mk(p0, PROTO_ID_BROADCAST, INS_WRITE, (const uint8_t[]){0x20, (uint8_t)x, 0xD5}, 3);
+        if (p0[n0 - 1u] == 0x5D)
+            break;
+    }
+    assert_int_equal(p0[n0 - 1u], 0x5D);
+    uint8_t sum = 0;
+    for (size_t i = 0; i < 11u; i++)
+        for (size_t j = 0; j < sizeof READ2; j++)
+            sum = (uint8_t)(sum + READ2[j]);
+    sum = (uint8_t)(sum + 0xD5 + 0x5D + 0x02 + 0x05 + 0x03 + 0x1E);
+    size_t nl = mk(last, 0x02, INS_WRITE, (const uint8_t[]){0x1E, sum, 0x00}, 3);
+    /* A damaged head (ID 3) over p0 and two READs, ending on the third READ's ID byte,
+     * whose checksum fails: its LEN counts INS..CHK, p0 and 2 READs and 3 bytes. */
+    head[3] = (uint8_t)(n0 + 2u * sizeof READ2 + 3u - 1u);
+    uint8_t hsum = (uint8_t)(head[2] + head[3]);
+    for (size_t j = 0; j < n0; j++)
+        hsum = (uint8_t)(hsum + p0[j]);
+    for (size_t j = 0; j < 2u * sizeof READ2 + 2u; j++)
+        hsum = (uint8_t)(hsum + READ2[j % sizeof READ2]);
+    assert_int_not_equal(hsum, READ2[2]); /* the head's checksum byte: it fails */
+    start(115200);
+    feed(head, sizeof head);
+    feed(p0, n0);
+    for (size_t i = 0; i < 11u; i++)
+        feed(READ2, sizeof READ2);
+    feed(last, nl);
+    quiet();
+    assert_int_equal(got.n, 14);
+    assert_int_equal(got.f[0].status, FRAME_BAD_CHECKSUM);
+    assert_true(same(&got.f[1], p0, n0, FRAME_OK));
+    for (size_t i = 2; i < 13u; i++)
+        assert_true(same(&got.f[i], READ2, sizeof READ2, FRAME_OK));
+    assert_true(same(&got.f[13], last, nl, FRAME_OK));
+    assert_int_equal(rx.overruns, 0);
+}
+
 /* ---- time-out (§1) ------------------------------------------------------------- */
 
 static void gap_inside_frame_abandons_it(void **state)
@@ -904,6 +950,7 @@ int main(void)
         cmocka_unit_test(issue25_junk_with_nested_headers_keeps_the_next_three_packets),
         cmocka_unit_test(candidate_on_a_frames_last_byte_goes_with_it),
         cmocka_unit_test(header_ending_on_a_good_frames_checksum_is_payload),
+        cmocka_unit_test(header_ending_on_an_inner_good_frames_checksum_is_payload),
         cmocka_unit_test(gap_inside_frame_abandons_it),
         cmocka_unit_test(frame_after_abandoned_one_is_received),
         cmocka_unit_test(len_0_1_and_id_ff_dropped),
