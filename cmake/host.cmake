@@ -1,13 +1,16 @@
 # Host build: the core with register names compiled in, the host HAL, tests and tools.
 option(SERVO_SANITIZE "Build with AddressSanitizer and UndefinedBehaviorSanitizer" ON)
+# A Debug build under the sanitizers is compiled at -O1, as ASan's own documentation
+# advises: every check stays, and the tests take about a third of the CPU time of -O0
+# (issue 28's faster loop: `ctest -L fast` fell from 92 s to 33 s of CPU).
 if(SERVO_SANITIZE)
-    add_compile_options(-fsanitize=address,undefined -fno-sanitize-recover=all
-                        -fno-omit-frame-pointer)
+    set(servo_sanitize_flags -fsanitize=address,undefined -fno-sanitize-recover=all
+        -fno-omit-frame-pointer $<$<CONFIG:Debug>:-O1>)
+    add_compile_options(${servo_sanitize_flags})
     add_link_options(-fsanitize=address,undefined)
     # The core's libraries were created before this file: give them the flags too.
     foreach(part bus motion)
-        target_compile_options(servo_${part} PRIVATE -fsanitize=address,undefined
-                               -fno-sanitize-recover=all -fno-omit-frame-pointer)
+        target_compile_options(servo_${part} PRIVATE ${servo_sanitize_flags})
     endforeach()
 endif()
 

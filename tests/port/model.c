@@ -67,8 +67,24 @@ static const struct block blocks[] = {
     {0xE000E000u, 0x1000u, cpu_read, cpu_write, NO_GATE, 0, "SCS"},
 };
 
+/* The peripherals' blocks are 1 KiB each from PERIPH_BASE: found by index. The search
+ * through the table was most of the port tests' time (a driver's wait loop polls a
+ * register for a long while). */
+#define PERIPH_BASE 0x40000000u
+#define PERIPH_SLOTS 0x90u /* to the FLASH interface's block, 0x40022000 */
 static const struct block *block_at(uintptr_t addr)
 {
+    static const struct block *slot[PERIPH_SLOTS];
+    static bool indexed;
+    if (!indexed) {
+        for (size_t i = 0; i < sizeof blocks / sizeof blocks[0]; i++)
+            if (blocks[i].base >= PERIPH_BASE && blocks[i].size == 0x400u &&
+                (blocks[i].base - PERIPH_BASE) / 0x400u < PERIPH_SLOTS)
+                slot[(blocks[i].base - PERIPH_BASE) / 0x400u] = &blocks[i];
+        indexed = true;
+    }
+    if (addr >= PERIPH_BASE && (addr - PERIPH_BASE) / 0x400u < PERIPH_SLOTS)
+        return slot[(addr - PERIPH_BASE) / 0x400u];
     for (size_t i = 0; i < sizeof blocks / sizeof blocks[0]; i++)
         if (addr >= blocks[i].base && addr - blocks[i].base < blocks[i].size)
             return &blocks[i];

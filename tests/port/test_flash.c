@@ -332,6 +332,8 @@ static void the_store_survives_a_cut_at_every_operation(void **state)
 {
     (void)state;
     board_up();
+    model.fpec.program_ticks = MODEL_US(5); /* fast: their timing has its own tests */
+    model.fpec.erase_ticks = MODEL_US(300);
     store_boot();
     uint32_t trials = 0, seq0 = st.seq;
     for (uint32_t i = 0; i < STORE_STEPS; i++) {

@@ -309,7 +309,7 @@ def test_update_answers_whatever_the_status_return_level(sim_factory):
 
 def test_bad_crc_is_refused_by_the_servo(sim_factory):
     sim = sim_factory("1:arm")
-    bad = corrupt(I.build(16384, 7, ARM), 9000)
+    bad = corrupt(I.build(4096, 7, ARM), 3000)  # 4 blocks at 9600 baud: 5 s, not 18
     with Bus(sim.url) as bus:
         with pytest.raises(ImageError, match="bad CRC"):
             bus.update(1, bad)
@@ -317,7 +317,7 @@ def test_bad_crc_is_refused_by_the_servo(sim_factory):
             bus.update(1, bad, check=False)
         assert e.value.step == "end of batch" and "failed its check" in str(e.value)
         assert bus.ping(1) == 0 and bus.read(1, "firmware_version") == FACTORY_VERSION
-        assert bus.update(1, I.build(16384, 8, ARM)) == 8  # and a good one still goes in
+        assert bus.update(1, I.build(4096, 8, ARM)) == 8  # and a good one still goes in
 
 
 @pytest.mark.parametrize("make,step", [
@@ -346,17 +346,17 @@ def servoctl(*args):
 def test_servoctl_update(sim_factory, tmp_path):
     sim = sim_factory("3:wrist")
     good = tmp_path / "wrist.img"
-    good.write_bytes(I.build(16384, 5, VARIANTS["wrist"].model_number))
+    good.write_bytes(I.build(4096, 5, VARIANTS["wrist"].model_number))  # 4 blocks: 5 s
     rc, out, err = servoctl("--port", sim.url, "--id", "3", "update", str(good))
     assert rc == 0, err
     assert "ID 3: updated in" in out and "now runs firmware version 5" in out
     assert "model 0x5204 (wrist), version 5" in err and "ID 3 runs firmware version 1" in err
-    assert "16/16 blocks,  16384/16384 bytes" in err
+    assert " 4/4 blocks,   4096/4096 bytes" in err
     rc, out, _ = servoctl("--port", sim.url, "--id", "3", "get", "firmware_version", "--raw")
     assert rc == 0 and out.strip() == "5"
 
     bad = tmp_path / "bad.img"
-    bad.write_bytes(corrupt(good.read_bytes()))
+    bad.write_bytes(corrupt(good.read_bytes(), 3000))
     rc, out, err = servoctl("update", str(bad), "--port", sim.url, "--id", "3")
     assert rc == 2 and err.startswith("servoctl: bad CRC") and err.count("\n") == 1
     rc, out, err = servoctl("update", str(bad), "--no-check", "--port", sim.url, "--id", "3")
@@ -380,16 +380,16 @@ def test_a_cut_during_the_update_keeps_the_old_firmware(sim_factory, tmp_path):
     sim = sim_factory("1:arm", state_dir=state)
 
     def cut(done, total, nbytes, total_bytes):
-        if done == 8:
+        if done == 2:
             sim.stop(signal.SIGKILL)  # a power cut half-way through the data blocks
 
     with Bus(sim.url) as bus:
         with pytest.raises(ServoBusError):
-            bus.update(1, I.build(16384, 7, ARM), progress=cut, retries=1)
+            bus.update(1, I.build(4096, 7, ARM), progress=cut, retries=1)
     sim = sim_factory("1:arm", state_dir=state)
     with Bus(sim.url) as bus:
         assert bus.read(1, "firmware_version") == FACTORY_VERSION
-        assert bus.update(1, I.build(16384, 7, ARM)) == 7
+        assert bus.update(1, I.build(4096, 7, ARM)) == 7
     sim.stop()
     sim = sim_factory("1:arm", state_dir=state)  # the new image survives a power cycle
     with Bus(sim.url) as bus:
@@ -407,6 +407,6 @@ def test_a_servo_in_update_mode_is_updated(sim_factory, tmp_path):
     with Bus(sim.url) as bus:
         assert not bus.present(2)  # update mode answers only the update frames
         notes = []
-        assert bus.update(2, I.build(9000, 4, FOOT), notify=notes.append) == 4
+        assert bus.update(2, I.build(3000, 4, FOOT), notify=notes.append) == 4
         assert len(notes) == 1 and "bootloader" in notes[0]
         assert bus.ping(2) == 0 and bus.read(2, "model_number") == FOOT

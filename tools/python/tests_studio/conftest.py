@@ -30,7 +30,8 @@ from raw import Api  # noqa: E402
 
 def pytest_configure(config):
     config.addinivalue_line("markers", "browser: drives headless Chromium (CTest "
-                            "python.studio, alone); the others use raw HTTP clients")
+                            "python.studio, with a core of its own); the others use raw HTTP "
+                            "clients")
 
 
 def pytest_collection_modifyitems(items):

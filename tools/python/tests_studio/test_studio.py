@@ -170,17 +170,18 @@ def test_a_bad_value_is_refused_with_a_message_and_nothing_is_sent(
 def test_a_firmware_update_reaches_100_percent_and_the_new_version_shows(
         sim_factory, studio_factory, page, tmp_path):
     image = tmp_path / "foot-v7.bin"
-    image.write_bytes(I.build(16384, version=7, model=VARIANTS["foot"].model_number))
+    # 4 blocks: servo-sim paces them at the foot's 9600 baud, 1.1 s each
+    image.write_bytes(I.build(4096, version=7, model=VARIANTS["foot"].model_number))
     p = on_the_foot(sim_factory(*SERVOS), studio_factory, page, "firmware")
     assert p.text("fw-now") == "1"
     p.by("#fw-file").send_keys(str(image))
-    p.wait(lambda: "16384 bytes, model 0x%04X (foot), version 7" % VARIANTS["foot"]
+    p.wait(lambda: "4096 bytes, model 0x%04X (foot), version 7" % VARIANTS["foot"]
            .model_number in p.text("fw-info"), what="what the file says it is")
     p.click("fw-go")
     p.wait(lambda: p.text("fw-after") == "7", timeout=60, what="the new version")
     assert p.text("fw-pct") == "100 %" and p.by("#fw-bar").get_attribute("value") == "100"
     assert p.text("fw-before") == "1"
-    assert "16/16 blocks, 16384/16384 bytes" in p.text("fw-text")
+    assert "4/4 blocks, 4096/4096 bytes" in p.text("fw-text")
     assert p.text("fw-now") == "7"
     p.panel("scan")
     assert p.scan_rows()[1][:4] == ["2", "foot", "0x%04X" % VARIANTS["foot"].model_number,
@@ -209,7 +210,7 @@ def test_a_servo_waiting_in_update_mode_is_recovered(
     flash.write_bytes(data)
     sim = sim_factory(*SERVOS, state_dir=state)
     image = tmp_path / "foot-v4.bin"
-    image.write_bytes(I.build(9000, version=4, model=VARIANTS["foot"].model_number))
+    image.write_bytes(I.build(3000, version=4, model=VARIANTS["foot"].model_number))
     studio = studio_factory(sim.url)
     p = page(studio.url)
     rows = p.wait_scanned(2)
