@@ -14,7 +14,9 @@ corpora aside) for:
 - file names (`store.c`, `qemu_cost.py`) in backquotes: some file of that name exists;
 - functions (`store_sync()`, in backquotes with parentheses) and test cases (a backquoted
   snake_case name of four words or more: `a_trajectory_write_never_splices_the_running_one`):
-  must be an identifier defined or used in the C, Python or JavaScript sources.
+  must be an identifier defined or used in the C, Python or JavaScript sources;
+- README.md's `make docs` row names every file the Makefile's `docs` target writes (a
+  generated copy the row leaves out is one a reader does not know to regenerate).
 Prints each finding as file:line and exits 1 on any; `--self-test` plants one of each
 kind of false statement and checks that each is found."""
 
@@ -29,7 +31,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SKIP_DIRS = {"build", ".git", "corpus", "node_modules"}
 TOPS = ("src", "include", "hal", "tests", "tools", "board", "docs", "cmake")
 CTEST_PREFIXES = ("unit", "replay", "docs", "python", "lint", "qemu", "fuzz", "port", "sim",
-                  "demo", "corruption")
+                  "demo", "corruption", "boards", "short")
 SOURCE_EXT = (".c", ".h", ".py", ".js")
 
 PATH = re.compile(r"(?<![\w./-])((?:%s)/[\w.<>*?/+-]*[\w>*?])" % "|".join(TOPS))
@@ -153,6 +155,22 @@ def check_doc(root, rel, text, tests, idents, files):
     return findings
 
 
+def make_docs_outputs(root):
+    """The files the Makefile's docs target writes (`... > path`)."""
+    with open(os.path.join(root, "Makefile"), encoding="utf-8") as fh:
+        recipe = re.search(r"^docs:.*\n((?:\t.*\n)+)", fh.read(), flags=re.M)
+    return re.findall(r">\s*(\S+)", recipe.group(1)) if recipe else []
+
+
+def check_make_docs_row(root, readme):
+    row = next((l for l in readme.splitlines() if l.startswith("| `make docs`")), None)
+    if row is None:
+        return ["README.md: no `make docs` row"]
+    return ["README.md: the `make docs` row does not name %s, which make docs writes" % out
+            for out in make_docs_outputs(root)
+            if out not in row and "`%s`" % os.path.basename(out) not in row]
+
+
 def check(root, build):
     tests = ctest_names(build)
     idents = source_identifiers(root)
@@ -162,6 +180,8 @@ def check(root, build):
         rel = os.path.relpath(path, root).replace(os.sep, "/")
         with open(path, encoding="utf-8") as fh:
             findings += check_doc(root, rel, fh.read(), tests, idents, files)
+    with open(os.path.join(root, "README.md"), encoding="utf-8") as fh:
+        findings += check_make_docs_row(root, fh.read())
     return findings, len(tests)
 
 
@@ -176,6 +196,7 @@ def self_test(build):
         "link to a missing file": "see [the map](no_such_page.md)",
         "link to a missing section": "see [the loop](motion.md#control-loop-srcmotionc)",
         "no CTest unit.crcs": "tested by `unit.crcs`",
+        "no CTest boards.seventh": "tested by `boards.seventh`",
         "no function store_commit_now()": "`store_commit_now()` writes it",
         "no test or name a_test_that_was_never_written": "(`a_test_that_was_never_written`)",
     }
@@ -186,11 +207,18 @@ def self_test(build):
             print("self-test: %r not found in %r" % (expect, line))
             failed += 1
     good = "`src/store.c`, `board/<name>/board_pins.h`, `unit.store`, `replay.*`, " \
+           "`boards.sixth`, `short.props`, " \
            "`tests/fuzz/corpus/TARGET/`, `fuzz.corpus.TARGET`, `store.c`, `demo.py`, " \
            "`store_sync()`, [arch](architecture.md), [rx](architecture.md#the-receiver)"
     found = check_doc(ROOT, "docs/planted.md", good, tests, idents, files)
     if found:
         print("self-test: true statements reported: %s" % found)
+        failed += 1
+    outputs = make_docs_outputs(ROOT)
+    row = "| `make docs` | regenerate %s |" % ", ".join("`%s`" % o for o in outputs)
+    if len(outputs) < 4 or check_make_docs_row(ROOT, row) or \
+            not check_make_docs_row(ROOT, row.replace(outputs[0], "")):
+        print("self-test: the make docs row check (Makefile writes %s)" % outputs)
         failed += 1
     return failed
 
