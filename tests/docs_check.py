@@ -15,6 +15,9 @@ corpora aside) for:
 - functions (`store_sync()`, in backquotes with parentheses) and test cases (a backquoted
   snake_case name of four words or more: `a_trajectory_write_never_splices_the_running_one`):
   must be an identifier defined or used in the C, Python or JavaScript sources;
+- include/write.h's list of who acts on which register (a comment, by hand) is what
+  docs/registers.md's "Who acts on a register" (generated from the hooks, and held to
+  them by docs.registers) says;
 - README.md's `make docs` row names every file the Makefile's `docs` target writes (a
   generated copy the row leaves out is one a reader does not know to regenerate).
 Prints each finding as file:line and exits 1 on any; `--self-test` plants one of each
@@ -22,6 +25,7 @@ kind of false statement and checks that each is found."""
 
 import fnmatch
 import glob
+import json
 import os
 import re
 import subprocess
@@ -171,6 +175,37 @@ def check_make_docs_row(root, readme):
             if out not in row and "`%s`" % os.path.basename(out) not in row]
 
 
+def hooks_in_registers_md(root):
+    """{module: set of register addresses it acts on}, from the generated table."""
+    with open(os.path.join(root, "docs", "registers.md"), encoding="utf-8") as fh:
+        text = fh.read()
+    section = text.split("## Who acts on a register", 1)[-1]
+    rows = re.findall(r"^\| (\w+) \| ([\d, ]+|-) \|", section, flags=re.M)
+    return {m: {int(a) for a in re.findall(r"\d+", acts)} for m, acts in rows}
+
+
+def check_write_h(root, text):
+    """include/write.h's comment rows (`link    3 4 5 16 18 20`, ranges `6-9` in bytes)
+    against the generated table; a range counts the registers that start in it."""
+    hooks = hooks_in_registers_md(root)
+    with open(os.path.join(root, "tools", "python", "servobus", "registers.json"),
+              encoding="ascii") as fh:
+        starts = {r["address"] for r in json.load(fh)["registers"]}
+    listed = {}
+    for m, nums in re.findall(r"^ \*\s+(%s)\s+([\d][\d -]*)" % "|".join(hooks), text, flags=re.M):
+        addrs = set()
+        for tok in nums.split():
+            lo, _, hi = tok.partition("-")
+            addrs |= set(range(int(lo), int(hi or lo) + 1))
+        listed[m] = addrs & starts
+    findings = []
+    for m, acts in hooks.items():
+        if listed.get(m) != acts:
+            findings.append("include/write.h: lists %s acting on %s; the hooks say %s" % (
+                m, sorted(listed.get(m, ())), sorted(acts)))
+    return findings
+
+
 def check(root, build):
     tests = ctest_names(build)
     idents = source_identifiers(root)
@@ -182,6 +217,8 @@ def check(root, build):
             findings += check_doc(root, rel, fh.read(), tests, idents, files)
     with open(os.path.join(root, "README.md"), encoding="utf-8") as fh:
         findings += check_make_docs_row(root, fh.read())
+    with open(os.path.join(root, "include", "write.h"), encoding="utf-8") as fh:
+        findings += check_write_h(root, fh.read())
     return findings, len(tests)
 
 
@@ -219,6 +256,12 @@ def self_test(build):
     if len(outputs) < 4 or check_make_docs_row(ROOT, row) or \
             not check_make_docs_row(ROOT, row.replace(outputs[0], "")):
         print("self-test: the make docs row check (Makefile writes %s)" % outputs)
+        failed += 1
+    with open(os.path.join(ROOT, "include", "write.h"), encoding="utf-8") as fh:
+        write_h = fh.read()
+    stale = re.sub(r"(^ \*\s+link\s+[\d ]*?) 20\b", r"\1", write_h, count=1, flags=re.M)
+    if check_write_h(ROOT, write_h) or stale == write_h or not check_write_h(ROOT, stale):
+        print("self-test: include/write.h's hook list check")
         failed += 1
     return failed
 
