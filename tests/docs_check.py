@@ -18,6 +18,10 @@ corpora aside) for:
 - include/write.h's list of who acts on which register (a comment, by hand) is what
   docs/registers.md's "Who acts on a register" (generated from the hooks, and held to
   them by docs.registers) says;
+- every instruction rule (`INS_*` flag, include/dispatch.h) and ERR bit (`ERR_*`,
+  include/proto.h) has its entry in tools/protocol_json.c, which names them for
+  protocol.json (else a new one never reaches the SDK, and docs.protocol_json, comparing
+  the JSON with what the generator prints, cannot see it);
 - README.md's `make docs` row names every file the Makefile's `docs` target writes (a
   generated copy the row leaves out is one a reader does not know to regenerate).
 Prints each finding as file:line and exits 1 on any; `--self-test` plants one of each
@@ -206,6 +210,24 @@ def check_write_h(root, text):
     return findings
 
 
+def check_protocol_json_c(root, dispatch_h, proto_h):
+    with open(os.path.join(root, "tools", "protocol_json.c"), encoding="utf-8") as fh:
+        gen = fh.read()
+    findings = []
+    for header, text, prefix in (("include/dispatch.h", dispatch_h, "INS"),
+                                 ("include/proto.h", proto_h, "ERR")):
+        for name in re.findall(r"^#define (%s_\w+) 0x[0-9A-Fa-f]+u\b" % prefix, text, flags=re.M):
+            if not re.search(r"\{\s*%s\s*," % name, gen):
+                findings.append("tools/protocol_json.c: %s (%s) has no entry, so protocol.json "
+                                "and the SDK never see it" % (name, header))
+    return findings
+
+
+def read_root(root, rel):
+    with open(os.path.join(root, rel), encoding="utf-8") as fh:
+        return fh.read()
+
+
 def check(root, build):
     tests = ctest_names(build)
     idents = source_identifiers(root)
@@ -219,6 +241,8 @@ def check(root, build):
         findings += check_make_docs_row(root, fh.read())
     with open(os.path.join(root, "include", "write.h"), encoding="utf-8") as fh:
         findings += check_write_h(root, fh.read())
+    findings += check_protocol_json_c(root, read_root(root, "include/dispatch.h"),
+                                      read_root(root, "include/proto.h"))
     return findings, len(tests)
 
 
@@ -262,6 +286,12 @@ def self_test(build):
     stale = re.sub(r"(^ \*\s+link\s+[\d ]*?) 20\b", r"\1", write_h, count=1, flags=re.M)
     if check_write_h(ROOT, write_h) or stale == write_h or not check_write_h(ROOT, stale):
         print("self-test: include/write.h's hook list check")
+        failed += 1
+    dispatch_h, proto_h = read_root(ROOT, "include/dispatch.h"), read_root(ROOT, "include/proto.h")
+    if check_protocol_json_c(ROOT, dispatch_h, proto_h) or \
+            not check_protocol_json_c(ROOT, dispatch_h + "#define INS_NEW_RULE 0x80u\n", proto_h) or \
+            not check_protocol_json_c(ROOT, dispatch_h, proto_h + "#define ERR_NEW_BIT 0x80u\n"):
+        print("self-test: tools/protocol_json.c's rules and ERR bits check")
         failed += 1
     return failed
 
