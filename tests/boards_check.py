@@ -48,7 +48,7 @@ def hand_list(names):
     """The whole list in its order, as C addresses (&board_base, &board_foot, ...) or as
     quoted names: a copy that a new board would not reach. (A bus of chosen boards in
     some other order is a test's choice, not a copy.)"""
-    sep = r"[\s,]+"
+    sep = r"(?:\s*:\s*\w+)?[\s,]+"  # a list, or a dict of each board's value
     lists = [names, names[:-1]]  # and a copy made before the newest board was added
     alts = []
     for lst in lists:
@@ -145,7 +145,8 @@ def check(root):
     return findings
 
 
-def sixth(root, list_it=True, folder=True, docs=True, stale_copy=False, planted=None):
+def sixth(root, list_it=True, folder=True, docs=True, stale_copy=False, planted=None,
+          stale_dict=False):
     """A copy of the files the check reads, with a sixth board added where asked."""
     tmp = tempfile.mkdtemp(prefix="boards_check.")
     for rel in ("cmake/boards.cmake", "include/board_list.h", "include/board.h",
@@ -181,6 +182,11 @@ def sixth(root, list_it=True, folder=True, docs=True, stale_copy=False, planted=
         with open(os.path.join(tmp, "tests", "test_x.c"), "w", encoding="utf-8") as fh:
             fh.write("static const struct board *const b[] = {%s};\n" % ", ".join(
                 "&board_%s" % n for n in boards.names(root)))
+    if stale_dict:  # a tool's own board -> model number map (as image.py's MODELS was)
+        os.makedirs(os.path.join(tmp, "tools"), exist_ok=True)
+        with open(os.path.join(tmp, "tools", "x.py"), "w", encoding="utf-8") as fh:
+            fh.write("MODELS = {%s}\n" % ", ".join(
+                '"%s": 0x%04X' % (n, 0x5201 + i) for i, n in enumerate(boards.names(root))))
     if planted:  # a test of its own that goes over the boards by variant
         os.makedirs(os.path.join(tmp, "tests"), exist_ok=True)
         with open(os.path.join(tmp, "tests", "test_y.c"), "w", encoding="utf-8") as fh:
@@ -197,6 +203,7 @@ def self_test(root):
              ("its folder only", dict(list_it=False), True),
              ("folder and list, no make docs", dict(docs=False), True),
              ("everywhere but a test's own list", dict(stale_copy=True), True),
+             ("everywhere but a tool's map of the boards", dict(stale_dict=True), True),
              ("everywhere, but a test walks VARIANT_COUNT", dict(planted=(
                  "for (unsigned v = 0; v < VARIANT_COUNT; v++)\n    run(board_all[v]);\n")),
               True),

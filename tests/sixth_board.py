@@ -13,7 +13,9 @@ include/board_list.h. Then:
      which
   3. pass, and
   4. link board_thumb: board_all holds six boards (the binary carries the sixth's name
-     and model).
+     and model);
+  5. regdoc --json (what make docs writes to the SDK's registers.json) lists it among
+     the boards, with its model number and its variant.
 Usage: sixth_board.py <scratch dir>. Exit 1 with the step that failed."""
 
 import os
@@ -96,7 +98,7 @@ def main(argv):
     assert names[-1] == NAME and len(names) == 6, names
     run("2. configure", ["cmake", "-S", src, "-B", build, "-G", "Unix Makefiles",
                          "-DCMAKE_BUILD_TYPE=Debug", "-DSERVO_SANITIZE=OFF"])
-    run("2. build", ["cmake", "--build", build, "-j2", "--target"] + list(TESTS))
+    run("2. build", ["cmake", "--build", build, "-j2", "--target", "regdoc"] + list(TESTS))
     for t in TESTS:
         exe = os.path.join(build, "tests", t)
         run("3. " + t, [exe], env=ENV)
@@ -104,6 +106,10 @@ def main(argv):
             blob = fh.read()
         if b"\0" + NAME.encode() + b"\0" not in blob:
             raise SystemExit("sixth_board: 4. %s does not link board_%s" % (t, NAME))
+    out = run("5. regdoc --json", [os.path.join(build, "tools", "regdoc"), "--json"])
+    want = '{"name": "%s", "variant": "foot", "model_number": %d}' % (NAME, int(MODEL[:-1], 16))
+    if want not in out:
+        raise SystemExit("sixth_board: 5. regdoc --json does not list %s" % want)
     print("sixth_board: board %s (from foot) listed everywhere, built, %s pass with "
           "board_all of %d boards" % (NAME, ", ".join(TESTS), len(names)))
     return 0
