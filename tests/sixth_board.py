@@ -15,7 +15,10 @@ include/board_list.h. Then:
   4. link board_thumb: board_all holds six boards (the binary carries the sixth's name
      and model);
   5. regdoc --json (what make docs writes to the SDK's registers.json) lists it among
-     the boards, with its model number and its variant.
+     the boards, with its model number and its variant; written there, as make docs does,
+  6. the firmware builds for it (the STM32 application, bootloader and combined image,
+     within the size goals the build enforces), and the stamp names it: the SDK knows
+     its model number.
 Usage: sixth_board.py <scratch dir>. Exit 1 with the step that failed."""
 
 import os
@@ -110,8 +113,22 @@ def main(argv):
     want = '{"name": "%s", "variant": "foot", "model_number": %d}' % (NAME, int(MODEL[:-1], 16))
     if want not in out:
         raise SystemExit("sixth_board: 5. regdoc --json does not list %s" % want)
+    with open(os.path.join(src, "tools", "python", "servobus", "registers.json"), "w",
+              encoding="ascii") as fh:
+        fh.write(out)  # make docs
+    fw = os.path.join(scratch, "stm32")
+    run("6. configure the firmware", ["cmake", "-S", src, "-B", fw, "-G", "Unix Makefiles",
+                                      "--toolchain", os.path.join(src, "cmake",
+                                                                  "arm-none-eabi.cmake"),
+                                      "-DBOARD=" + NAME, "-DCMAKE_BUILD_TYPE=MinSizeRel"])
+    out = run("6. build the firmware", ["cmake", "--build", fw, "-j2"])
+    stamp = "model 0x%04X (%s)" % (int(MODEL[:-1], 16), NAME)
+    if stamp not in out or not os.path.isfile(os.path.join(fw, "servo-%s-full.bin" % NAME)):
+        print(out[-2000:])
+        raise SystemExit("sixth_board: 6. no servo-%s-full.bin stamped %s" % (NAME, stamp))
     print("sixth_board: board %s (from foot) listed everywhere, built, %s pass with "
-          "board_all of %d boards" % (NAME, ", ".join(TESTS), len(names)))
+          "board_all of %d boards; its firmware builds (%s)" % (
+              NAME, ", ".join(TESTS), len(names), stamp))
     return 0
 
 
