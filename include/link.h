@@ -109,6 +109,13 @@ static inline uint8_t link_state(const struct link *l)
     return l->state;
 }
 
+/* When the answer that waits (LINK_WAITING) starts: servo-sim's bus orders the servos'
+ * answers by it. */
+static inline uint32_t link_due_us(const struct link *l)
+{
+    return l->due_us;
+}
+
 /* An answer waits and reports no checksum or instruction error (tx[4]: the ERR byte of
  * D5 5D ID LEN ERR ...): the kind a frame's error answer must not replace. */
 static inline bool link_waiting_good(const struct link *l)

@@ -11,12 +11,17 @@ cmake/boards.cmake, and everything that goes over every board agree.
 - no other file defines a struct board, and no C, Python or shell file keeps a hand copy
   of the list (every board, in the list's order, as names or board_<name>);
 - include/board.h has the model number BOARD_MODEL_<NAME> of each;
+- no C file walks the boards by variant: board_all indexed by a VARIANT_ value or by a
+  loop bounded by VARIANT_COUNT, or per-board state kept in a [VARIANT_COUNT] array by
+  `->variant` (a board is not a variant: a sixth board of an existing variant would be
+  skipped, or run on its twin's snapshot);
 - `make boards` (the Makefile's BOARDS, make firmware's boards) and tools/fuzz_seeds.py's
   BOARDS are the list; board/README.md's table has one row per board.
 
 --self-test first runs the check on copies of those files: with a sixth board added to
 the list only, with its folder only, and with its folder and the list but not `make
-docs`, or everywhere but a test's own copy of the list, it must fail; added everywhere
+docs`, or everywhere but a test's own copy of the list, or a test that walks the boards by
+VARIANT_COUNT or keeps their state by variant, it must fail; added everywhere
 the recipe says, it must pass."""
 
 import os
@@ -43,7 +48,7 @@ def hand_list(names):
     """The whole list in its order, as C addresses (&board_base, &board_foot, ...) or as
     quoted names: a copy that a new board would not reach. (A bus of chosen boards in
     some other order is a test's choice, not a copy.)"""
-    sep = r"[\s,]+"
+    sep = r"(?:\s*:\s*\w+)?[\s,]+"  # a list, or a dict of each board's value
     lists = [names, names[:-1]]  # and a copy made before the newest board was added
     alts = []
     for lst in lists:
@@ -108,6 +113,9 @@ def check(root):
         findings.append("tools/fuzz_seeds.py: BOARDS is %r, not the list" %
                         (seeds.stdout.strip() or seeds.stderr.strip()))
     pattern = hand_list(names)
+    by_variant = re.compile(r"board_all\[[^\]]*VARIANT_")
+    loop = re.compile(r"for\s*\([^;]*;\s*(\w+)\s*<\s*VARIANT_COUNT\s*;")
+    state = re.compile(r"\w+\[VARIANT_COUNT\](?:\[\w+\])?\s*;")
     struct = re.compile(r"^\s*const struct board board_\w+\s*=", re.M)
     for top in SCANNED:
         for dirpath, dirs, files in os.walk(os.path.join(root, top)):
@@ -123,13 +131,22 @@ def check(root):
                         pattern.search(text):
                     findings.append("%s: a hand copy of the board list (use board_all and "
                                     "BOARD_COUNT, or tools/boards.py)" % rel)
+                if f.endswith(".c") and (by_variant.search(text) or any(
+                        re.search(r"board_all\[\s*%s\s*\]" % v, text)
+                        for v in loop.findall(text))):
+                    findings.append("%s: walks the boards by VARIANT_COUNT (use BOARD_COUNT: "
+                                    "a board is not a variant)" % rel)
+                if f.endswith(".c") and state.search(text) and "->variant]" in text:
+                    findings.append("%s: keeps per-board state by variant ([VARIANT_COUNT] "
+                                    "indexed by ->variant; use the board's index)" % rel)
                 if struct.search(text) and not re.fullmatch(r"board/\w+/board\.c", rel):
                     findings.append("%s defines a struct board outside board/<name>/board.c"
                                     % rel)
     return findings
 
 
-def sixth(root, list_it=True, folder=True, docs=True, stale_copy=False):
+def sixth(root, list_it=True, folder=True, docs=True, stale_copy=False, planted=None,
+          stale_dict=False):
     """A copy of the files the check reads, with a sixth board added where asked."""
     tmp = tempfile.mkdtemp(prefix="boards_check.")
     for rel in ("cmake/boards.cmake", "include/board_list.h", "include/board.h",
@@ -165,6 +182,15 @@ def sixth(root, list_it=True, folder=True, docs=True, stale_copy=False):
         with open(os.path.join(tmp, "tests", "test_x.c"), "w", encoding="utf-8") as fh:
             fh.write("static const struct board *const b[] = {%s};\n" % ", ".join(
                 "&board_%s" % n for n in boards.names(root)))
+    if stale_dict:  # a tool's own board -> model number map (as image.py's MODELS was)
+        os.makedirs(os.path.join(tmp, "tools"), exist_ok=True)
+        with open(os.path.join(tmp, "tools", "x.py"), "w", encoding="utf-8") as fh:
+            fh.write("MODELS = {%s}\n" % ", ".join(
+                '"%s": 0x%04X' % (n, 0x5201 + i) for i, n in enumerate(boards.names(root))))
+    if planted:  # a test of its own that goes over the boards by variant
+        os.makedirs(os.path.join(tmp, "tests"), exist_ok=True)
+        with open(os.path.join(tmp, "tests", "test_y.c"), "w", encoding="utf-8") as fh:
+            fh.write(planted)
     if docs and list_it:
         with open(os.path.join(tmp, "include/board_list.h"), "w", encoding="utf-8") as fh:
             fh.write(boards.header(tmp))
@@ -177,6 +203,15 @@ def self_test(root):
              ("its folder only", dict(list_it=False), True),
              ("folder and list, no make docs", dict(docs=False), True),
              ("everywhere but a test's own list", dict(stale_copy=True), True),
+             ("everywhere but a tool's map of the boards", dict(stale_dict=True), True),
+             ("everywhere, but a test walks VARIANT_COUNT", dict(planted=(
+                 "for (unsigned v = 0; v < VARIANT_COUNT; v++)\n    run(board_all[v]);\n")),
+              True),
+             ("everywhere, but a test picks board_all[VARIANT_ARM]", dict(
+                 planted="run(board_all[VARIANT_ARM]);\n"), True),
+             ("everywhere, but a test keeps a snapshot per variant", dict(planted=(
+                 "static struct servo snap[VARIANT_COUNT];\n"
+                 "void keep(const struct board *b) { snap[b->variant] = s; }\n")), True),
              ("everywhere the recipe says", {}, False)]
     for what, how, must_fail in cases:
         tmp = sixth(root, **how)

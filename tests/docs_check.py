@@ -14,12 +14,22 @@ corpora aside) for:
 - file names (`store.c`, `qemu_cost.py`) in backquotes: some file of that name exists;
 - functions (`store_sync()`, in backquotes with parentheses) and test cases (a backquoted
   snake_case name of four words or more: `a_trajectory_write_never_splices_the_running_one`):
-  must be an identifier defined or used in the C, Python or JavaScript sources.
+  must be an identifier defined or used in the C, Python or JavaScript sources;
+- include/write.h's list of who acts on which register (a comment, by hand) is what
+  docs/registers.md's "Who acts on a register" (generated from the hooks, and held to
+  them by docs.registers) says;
+- every instruction rule (`INS_*` flag, include/dispatch.h) and ERR bit (`ERR_*`,
+  include/proto.h) has its entry in tools/protocol_json.c, which names them for
+  protocol.json (else a new one never reaches the SDK, and docs.protocol_json, comparing
+  the JSON with what the generator prints, cannot see it);
+- README.md's `make docs` row names every file the Makefile's `docs` target writes (a
+  generated copy the row leaves out is one a reader does not know to regenerate).
 Prints each finding as file:line and exits 1 on any; `--self-test` plants one of each
 kind of false statement and checks that each is found."""
 
 import fnmatch
 import glob
+import json
 import os
 import re
 import subprocess
@@ -29,7 +39,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SKIP_DIRS = {"build", ".git", "corpus", "node_modules"}
 TOPS = ("src", "include", "hal", "tests", "tools", "board", "docs", "cmake")
 CTEST_PREFIXES = ("unit", "replay", "docs", "python", "lint", "qemu", "fuzz", "port", "sim",
-                  "demo", "corruption")
+                  "demo", "corruption", "boards", "short")
 SOURCE_EXT = (".c", ".h", ".py", ".js")
 
 PATH = re.compile(r"(?<![\w./-])((?:%s)/[\w.<>*?/+-]*[\w>*?])" % "|".join(TOPS))
@@ -153,6 +163,71 @@ def check_doc(root, rel, text, tests, idents, files):
     return findings
 
 
+def make_docs_outputs(root):
+    """The files the Makefile's docs target writes (`... > path`)."""
+    with open(os.path.join(root, "Makefile"), encoding="utf-8") as fh:
+        recipe = re.search(r"^docs:.*\n((?:\t.*\n)+)", fh.read(), flags=re.M)
+    return re.findall(r">\s*(\S+)", recipe.group(1)) if recipe else []
+
+
+def check_make_docs_row(root, readme):
+    row = next((l for l in readme.splitlines() if l.startswith("| `make docs`")), None)
+    if row is None:
+        return ["README.md: no `make docs` row"]
+    return ["README.md: the `make docs` row does not name %s, which make docs writes" % out
+            for out in make_docs_outputs(root)
+            if out not in row and "`%s`" % os.path.basename(out) not in row]
+
+
+def hooks_in_registers_md(root):
+    """{module: set of register addresses it acts on}, from the generated table."""
+    with open(os.path.join(root, "docs", "registers.md"), encoding="utf-8") as fh:
+        text = fh.read()
+    section = text.split("## Who acts on a register", 1)[-1]
+    rows = re.findall(r"^\| (\w+) \| ([\d, ]+|-) \|", section, flags=re.M)
+    return {m: {int(a) for a in re.findall(r"\d+", acts)} for m, acts in rows}
+
+
+def check_write_h(root, text):
+    """include/write.h's comment rows (`link    3 4 5 16 18 20`, ranges `6-9` in bytes)
+    against the generated table; a range counts the registers that start in it."""
+    hooks = hooks_in_registers_md(root)
+    with open(os.path.join(root, "tools", "python", "servobus", "registers.json"),
+              encoding="ascii") as fh:
+        starts = {r["address"] for r in json.load(fh)["registers"]}
+    listed = {}
+    for m, nums in re.findall(r"^ \*\s+(%s)\s+([\d][\d -]*)" % "|".join(hooks), text, flags=re.M):
+        addrs = set()
+        for tok in nums.split():
+            lo, _, hi = tok.partition("-")
+            addrs |= set(range(int(lo), int(hi or lo) + 1))
+        listed[m] = addrs & starts
+    findings = []
+    for m, acts in hooks.items():
+        if listed.get(m) != acts:
+            findings.append("include/write.h: lists %s acting on %s; the hooks say %s" % (
+                m, sorted(listed.get(m, ())), sorted(acts)))
+    return findings
+
+
+def check_protocol_json_c(root, dispatch_h, proto_h):
+    with open(os.path.join(root, "tools", "protocol_json.c"), encoding="utf-8") as fh:
+        gen = fh.read()
+    findings = []
+    for header, text, prefix in (("include/dispatch.h", dispatch_h, "INS"),
+                                 ("include/proto.h", proto_h, "ERR")):
+        for name in re.findall(r"^#define (%s_\w+) 0x[0-9A-Fa-f]+u\b" % prefix, text, flags=re.M):
+            if not re.search(r"\{\s*%s\s*," % name, gen):
+                findings.append("tools/protocol_json.c: %s (%s) has no entry, so protocol.json "
+                                "and the SDK never see it" % (name, header))
+    return findings
+
+
+def read_root(root, rel):
+    with open(os.path.join(root, rel), encoding="utf-8") as fh:
+        return fh.read()
+
+
 def check(root, build):
     tests = ctest_names(build)
     idents = source_identifiers(root)
@@ -162,6 +237,12 @@ def check(root, build):
         rel = os.path.relpath(path, root).replace(os.sep, "/")
         with open(path, encoding="utf-8") as fh:
             findings += check_doc(root, rel, fh.read(), tests, idents, files)
+    with open(os.path.join(root, "README.md"), encoding="utf-8") as fh:
+        findings += check_make_docs_row(root, fh.read())
+    with open(os.path.join(root, "include", "write.h"), encoding="utf-8") as fh:
+        findings += check_write_h(root, fh.read())
+    findings += check_protocol_json_c(root, read_root(root, "include/dispatch.h"),
+                                      read_root(root, "include/proto.h"))
     return findings, len(tests)
 
 
@@ -176,6 +257,7 @@ def self_test(build):
         "link to a missing file": "see [the map](no_such_page.md)",
         "link to a missing section": "see [the loop](motion.md#control-loop-srcmotionc)",
         "no CTest unit.crcs": "tested by `unit.crcs`",
+        "no CTest boards.seventh": "tested by `boards.seventh`",
         "no function store_commit_now()": "`store_commit_now()` writes it",
         "no test or name a_test_that_was_never_written": "(`a_test_that_was_never_written`)",
     }
@@ -186,11 +268,30 @@ def self_test(build):
             print("self-test: %r not found in %r" % (expect, line))
             failed += 1
     good = "`src/store.c`, `board/<name>/board_pins.h`, `unit.store`, `replay.*`, " \
+           "`boards.sixth`, `short.props`, " \
            "`tests/fuzz/corpus/TARGET/`, `fuzz.corpus.TARGET`, `store.c`, `demo.py`, " \
            "`store_sync()`, [arch](architecture.md), [rx](architecture.md#the-receiver)"
     found = check_doc(ROOT, "docs/planted.md", good, tests, idents, files)
     if found:
         print("self-test: true statements reported: %s" % found)
+        failed += 1
+    outputs = make_docs_outputs(ROOT)
+    row = "| `make docs` | regenerate %s |" % ", ".join("`%s`" % o for o in outputs)
+    if len(outputs) < 4 or check_make_docs_row(ROOT, row) or \
+            not check_make_docs_row(ROOT, row.replace(outputs[0], "")):
+        print("self-test: the make docs row check (Makefile writes %s)" % outputs)
+        failed += 1
+    with open(os.path.join(ROOT, "include", "write.h"), encoding="utf-8") as fh:
+        write_h = fh.read()
+    stale = re.sub(r"(^ \*\s+link\s+[\d ]*?) 20\b", r"\1", write_h, count=1, flags=re.M)
+    if check_write_h(ROOT, write_h) or stale == write_h or not check_write_h(ROOT, stale):
+        print("self-test: include/write.h's hook list check")
+        failed += 1
+    dispatch_h, proto_h = read_root(ROOT, "include/dispatch.h"), read_root(ROOT, "include/proto.h")
+    if check_protocol_json_c(ROOT, dispatch_h, proto_h) or \
+            not check_protocol_json_c(ROOT, dispatch_h + "#define INS_NEW_RULE 0x80u\n", proto_h) or \
+            not check_protocol_json_c(ROOT, dispatch_h, proto_h + "#define ERR_NEW_BIT 0x80u\n"):
+        print("self-test: tools/protocol_json.c's rules and ERR bits check")
         failed += 1
     return failed
 

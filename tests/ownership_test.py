@@ -20,7 +20,20 @@ PLANTED = {
                      "    if (r->mem[2] == 1) {}\n"      # a read: fine
                      "    /* s->rx.pos = 1; */\n}\n",    # a comment: fine
     "src/link.c": "void g(struct servo *s) { s->link.state = 0; }\n",  # the owner: fine
-    "tools/sim/bus.c": "x = v->node.servo.rx.overruns;\n",          # line 1
+    "tools/sim/bus.c": "x = v->node.servo.rx.overruns;\n"            # line 1
+                       "const struct link *l = &n->servo.link;\n"   # a pointer to it: fine
+                       "if (l->state == 2) {}\n",                    # line 3: through it
+    # What a name-bound check misses: another name, a macro, a pointer to the part, a
+    # pointer to the table's bytes (issue 28's review; a pointer to const bytes reads).
+    "src/sequence.c": "#define MODE(x) ((x)->motion.mode)\n"          # line 1
+                      "void h(struct servo *sv)\n{\n"
+                      "    sv->safety.quiet_ticks = 0;\n"            # line 4
+                      "    struct motion *m = &sv->motion;\n"        # a pointer: fine
+                      "    m->mode = 0;\n"                           # line 6
+                      "    uint8_t *t = sv->regs.mem;\n"             # a pointer: fine
+                      "    t[3] = 1;\n"                              # line 8
+                      "    const uint8_t *u = sv->regs.mem;\n"       # const: fine
+                      "    if (u[1] == 0) {}\n}\n",                 # a read: fine
 }
 
 
@@ -45,7 +58,8 @@ def main():
     found = sorted(line.split(": ")[0] for line in out.splitlines() if ": " in line
                    and not line.startswith("ownership:"))
     want = ["src/command.c:3", "src/command.c:4", "src/command.c:5", "src/command.c:6",
-            "tools/sim/bus.c:1"]
+            "src/sequence.c:1", "src/sequence.c:4", "src/sequence.c:6", "src/sequence.c:8",
+            "tools/sim/bus.c:1", "tools/sim/bus.c:3"]
     if rc != 1 or found != want:
         print("planted violations: expected %s, found %s\n%s" % (want, found, out))
         return 1

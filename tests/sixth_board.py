@@ -9,10 +9,16 @@ board/README.md, then `tools/boards.py header` (what `make docs` runs) for
 include/board_list.h. Then:
   1. tests/boards_check.py finds nothing in the copy (every list followed);
   2. the copy configures and builds the host tests that go over every board
-     (test_regs, test_scale), which
+     (test_regs, test_scale, test_loader, test_motion, and test_props in its short mode),
+     which
   3. pass, and
   4. link board_thumb: board_all holds six boards (the binary carries the sixth's name
-     and model).
+     and model);
+  5. regdoc --json (what make docs writes to the SDK's registers.json) lists it among
+     the boards, with its model number and its variant; written there, as make docs does,
+  6. the firmware builds for it (the STM32 application, bootloader and combined image,
+     within the size goals the build enforces), and the stamp names it: the SDK knows
+     its model number.
 Usage: sixth_board.py <scratch dir>. Exit 1 with the step that failed."""
 
 import os
@@ -28,7 +34,8 @@ import boards  # noqa: E402
 import boards_check  # noqa: E402
 
 NAME, MODEL = "thumb", "0x5206u"
-TESTS = ("test_regs", "test_scale")
+TESTS = ("test_regs", "test_scale", "test_loader", "test_motion", "test_props")
+ENV = dict(os.environ, PROPS_SEQUENCES="200")  # short.props' count
 
 
 def edit(path, old, new, count=1):
@@ -94,16 +101,34 @@ def main(argv):
     assert names[-1] == NAME and len(names) == 6, names
     run("2. configure", ["cmake", "-S", src, "-B", build, "-G", "Unix Makefiles",
                          "-DCMAKE_BUILD_TYPE=Debug", "-DSERVO_SANITIZE=OFF"])
-    run("2. build", ["cmake", "--build", build, "-j2", "--target"] + list(TESTS))
+    run("2. build", ["cmake", "--build", build, "-j2", "--target", "regdoc"] + list(TESTS))
     for t in TESTS:
         exe = os.path.join(build, "tests", t)
-        run("3. " + t, [exe])
+        run("3. " + t, [exe], env=ENV)
         with open(exe, "rb") as fh:
             blob = fh.read()
         if b"\0" + NAME.encode() + b"\0" not in blob:
             raise SystemExit("sixth_board: 4. %s does not link board_%s" % (t, NAME))
+    out = run("5. regdoc --json", [os.path.join(build, "tools", "regdoc"), "--json"])
+    want = '{"name": "%s", "variant": "foot", "model_number": %d}' % (NAME, int(MODEL[:-1], 16))
+    if want not in out:
+        raise SystemExit("sixth_board: 5. regdoc --json does not list %s" % want)
+    with open(os.path.join(src, "tools", "python", "servobus", "registers.json"), "w",
+              encoding="ascii") as fh:
+        fh.write(out)  # make docs
+    fw = os.path.join(scratch, "stm32")
+    run("6. configure the firmware", ["cmake", "-S", src, "-B", fw, "-G", "Unix Makefiles",
+                                      "--toolchain", os.path.join(src, "cmake",
+                                                                  "arm-none-eabi.cmake"),
+                                      "-DBOARD=" + NAME, "-DCMAKE_BUILD_TYPE=MinSizeRel"])
+    out = run("6. build the firmware", ["cmake", "--build", fw, "-j2"])
+    stamp = "model 0x%04X (%s)" % (int(MODEL[:-1], 16), NAME)
+    if stamp not in out or not os.path.isfile(os.path.join(fw, "servo-%s-full.bin" % NAME)):
+        print(out[-2000:])
+        raise SystemExit("sixth_board: 6. no servo-%s-full.bin stamped %s" % (NAME, stamp))
     print("sixth_board: board %s (from foot) listed everywhere, built, %s pass with "
-          "board_all of %d boards" % (NAME, " and ".join(TESTS), len(names)))
+          "board_all of %d boards; its firmware builds (%s)" % (
+              NAME, ", ".join(TESTS), len(names), stamp))
     return 0
 
 

@@ -114,6 +114,13 @@ static int print_json(void)
                b->return_delay, b->max_angle_ddeg, b->photo_switches ? "true" : "false",
                v + 1 < VARIANT_COUNT ? "," : "");
     }
+    /* Every board of the one list (a variant may have several), for the SDK's model
+     * numbers: a board it does not list is a servo it does not know. */
+    printf("  ],\n  \"boards\": [\n");
+    for (uint32_t i = 0; i < BOARD_COUNT; i++)
+        printf("    {\"name\": \"%s\", \"variant\": \"%s\", \"model_number\": %u}%s\n",
+               board_all[i]->name, variant_board(board_all[i]->variant)->name,
+               board_all[i]->model_number, i + 1u < BOARD_COUNT ? "," : "");
     printf("  ],\n  \"baud_rates\": [");
     for (uint8_t c = 1; c <= 10; c++)
         printf("%s%u", c > 1 ? ", " : "", (unsigned)link_baud(&board_arm, c));

@@ -22,7 +22,7 @@
  *      parameter as its last byte; and only a frame for that ID or a broadcast gets one.
  *
  * An input whose byte 0 is F0 or more is instead a packet sequence with one damaged
- * byte (issue 25; byte 0 % 5 still picks the board, byte 1 the ID):
+ * byte (issue 25; byte 0 % BOARD_COUNT still picks the board, byte 1 the ID):
  *   byte 2     damage: (b % 3) delete, insert, corrupt
  *   bytes 3-4  where, little-endian, modulo the sequence's bytes (an insertion goes
  *              before that byte; modulo one more, it may go after the last)

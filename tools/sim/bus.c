@@ -119,9 +119,9 @@ static int64_t skew_us(unsigned i)
 static int64_t answer_start(unsigned i)
 {
     const struct link *l = &servos[i]->node.servo.link;
-    if (l->state != LINK_WAITING)
+    if (link_state(l) != LINK_WAITING)
         return NONE;
-    return unwrap(l->due_us) + skew_us(i);
+    return unwrap(link_due_us(l)) + skew_us(i);
 }
 
 /* Put what servo i started sending on the line, at its exact bit times: the HAL logs
@@ -204,7 +204,7 @@ static void run_at(unsigned i, int64_t t)
     ran_us[i] = t;
     for (int pass = 0; pass < 8; pass++) {
         const struct link *l = &n->servo.link;
-        if (l->state == LINK_WAITING && t >= unwrap(l->due_us) && t < answer_start(i))
+        if (link_state(l) == LINK_WAITING && t >= unwrap(link_due_us(l)) && t < answer_start(i))
             break;
         node_step(n, (uint32_t)t);
         collect(i);
@@ -212,8 +212,8 @@ static void run_at(unsigned i, int64_t t)
         report_tokens(servos[i]);
         report_moving(servos[i], t);
         /* A frame is executed even while an answer waits (servo.c): only sending stops it. */
-        bool next_frame = l->state != LINK_SENDING && frame_rx_peek(&n->servo.rx) != NULL;
-        if (!next_frame && !(l->state == LINK_WAITING && t >= answer_start(i)))
+        bool next_frame = link_state(l) != LINK_SENDING && frame_rx_peek(&n->servo.rx) != NULL;
+        if (!next_frame && !(link_state(l) == LINK_WAITING && t >= answer_start(i)))
             break; /* else go on at once: no answer waits for the next tick */
     }
     state_sync(&servos[i]->state); /* also catches flash work outside the wrapped calls */

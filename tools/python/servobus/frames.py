@@ -13,8 +13,9 @@ from .errors import RangeError
 from .registers import REGISTERS
 
 _BY_ADDRESS = {r.address: r for r in REGISTERS.values()}
-_CUSTOM_SUBS = {1: "move relative", 2: "move absolute", P.UPDATE_ENTER: "update: enter",
-                P.UPDATE_BLOCK: "update: block"}
+# CUSTOM's sub-commands in words, from the table (protocol.json), and the §10 update subs.
+_CUSTOM_SUBS = {s["sub"]: s["name"].replace("_", " ") for s in P.CUSTOM_SUBS.values()}
+_CUSTOM_SUBS.update({P.UPDATE_ENTER: "update: enter", P.UPDATE_BLOCK: "update: block"})
 _START_END = {1: "start (here is 0 and the CW limit)", 2: "end (here is the CCW limit)"}
 
 

@@ -37,11 +37,12 @@ COMMITS = frozenset(i["code"] for i in TABLE["instructions"] if "commits" in i["
 # CUSTOM's sub-commands by name (the move subs, issue 27's identity sub), with their rules.
 CUSTOM_SUBS = {s["name"]: s for s in TABLE["custom_subs"]}
 
-INSTRUCTION_NAMES = {
-    PING: "PING", READ: "READ", WRITE: "WRITE", REG_WRITE: "REG WRITE", ACTION: "ACTION",
-    RESET: "RESET", START_END: "START/END", TRAJ_WRITE: "TRAJECTORY WRITE",
-    TRAJ_ACTION: "TRAJECTORY ACTION", SYNC_WRITE: "SYNC WRITE", CUSTOM: "CUSTOM",
-}
+# Every instruction of the table by its name in words (the spec's spelling: "sync_write"
+# is SYNC WRITE), from the table itself, so an instruction added there is named in
+# servoctl's errors and Studio's console without a second list.
+_WORDS = {"start_end": "START/END"}
+INSTRUCTION_NAMES = {i["code"]: _WORDS.get(i["name"], i["name"].upper().replace("_", " "))
+                     for i in TABLE["instructions"]}
 
 ERR_OVER_TEMPERATURE = _ERR["over_temperature"]
 ERR_OVER_CURRENT = _ERR["over_current"]

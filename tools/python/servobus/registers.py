@@ -35,15 +35,18 @@ class Variant:
     @property
     def position_register(self):
         """The register that holds the present position (§8)."""
-        return REGISTERS["present_position" if self.name in ("wrist", "finger")
-                         else "turned_angle"]
+        present = REGISTERS["present_position"]
+        return present if present.applies_to(self) else REGISTERS["turned_angle"]
 
     def __repr__(self):
         return "Variant(%s)" % self.name
 
 
 VARIANTS = {d["name"]: Variant(d) for d in _DATA["variants"]}
-_BY_MODEL = {v.model_number: v for v in VARIANTS.values()}
+# Every board of the firmware's one list (cmake/boards.cmake) by name: its model number
+# and its variant's name. A variant may have several boards, each its own model number.
+BOARDS = {d["name"]: d for d in _DATA["boards"]}
+_BY_MODEL = {b["model_number"]: VARIANTS[b["variant"]] for b in BOARDS.values()}
 
 
 def variant_by_model(model_number):

@@ -23,6 +23,19 @@ def test_a_frame_is_decoded_into_registers_units_and_err_words():
         "over-temperature (above register 11)"]
 
 
+def test_every_instruction_and_custom_sub_of_the_table_is_decoded_by_name():
+    # Issue 28: the names come from protocol.json (the firmware's table), not a hand list,
+    # so an instruction or sub-command added there is named, not shown as a bare code.
+    for ins in P.TABLE["instructions"]:
+        d = F.decode_instruction(P.instruction(1, ins["code"], bytes(ins["params_min"])))
+        assert d["name"] == P.INSTRUCTION_NAMES[ins["code"]]
+        assert d["name"].replace("/", " ") == ins["name"].upper().replace("_", " ")
+    for sub in P.TABLE["custom_subs"]:
+        d = F.decode_instruction(P.instruction(P.BROADCAST, P.CUSTOM, bytes([sub["sub"]])))
+        assert sub["name"].replace("_", " ") in d["summary"], (sub, d["summary"])
+    assert F.decode_instruction(P.instruction(1, P.START_END, bytes([1])))["name"] == "START/END"
+
+
 def test_typed_hex_gets_its_checksum_and_a_wrong_one_is_refused():
     assert F.parse_hex("D5 5D 02 04 02 2E 01") == P.instruction(2, P.READ, bytes([46, 1]))
     assert F.parse_hex("02 04 02 2e 01") == P.instruction(2, P.READ, bytes([46, 1]))
