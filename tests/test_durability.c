@@ -27,6 +27,7 @@
 #include "proto.h"
 #include "store.h"
 #include "vbus.h"
+#include "test_rng.h"
 
 static struct vbus bus;
 
@@ -149,10 +150,7 @@ static void issue19_commissioning_survives_a_cut(void **state)
 static uint32_t rng;
 static uint32_t rnd(void)
 {
-    rng ^= rng << 13;
-    rng ^= rng >> 17;
-    rng ^= rng << 5;
-    return rng;
+    return xorshift32(&rng);
 }
 static uint32_t below(uint32_t n) { return n ? rnd() % n : 0u; }
 

@@ -12,6 +12,7 @@
 #include "frame_rx.h"
 #include "proto.h"
 #include "regs.h"
+#include "test_rng.h"
 
 #define MAX_GOT 64u
 
@@ -764,11 +765,7 @@ static uint32_t rng_state;
 
 static uint32_t rnd(void)
 {
-    uint32_t x = rng_state;
-    x ^= x << 13;
-    x ^= x >> 17;
-    x ^= x << 5;
-    return rng_state = x;
+    return xorshift32(&rng_state);
 }
 
 static uint32_t rnd_below(uint32_t n) { return rnd() % n; }

@@ -23,6 +23,7 @@
 #include <cmocka.h>
 
 #include "bus_host.h"
+#include "test_rng.h"
 
 #define READ_MS 20u          /* the host reads the whole table this often while it watches */
 #define SETTLE_MS 90000u     /* the longest a generated motion may take to end (see below) */
@@ -105,10 +106,8 @@ static struct {
 
 static uint32_t prnd(uint32_t n)
 {
-    prng ^= prng << 13;
-    prng ^= prng >> 17;
-    prng ^= prng << 5;
-    return n ? prng % n : 0;
+    uint32_t x = xorshift32(&prng);
+    return n ? x % n : 0;
 }
 
 static void note(const char *fmt, ...)

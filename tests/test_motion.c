@@ -31,6 +31,7 @@
 #include "hal_host.h"
 #include "proto.h"
 #include "servo.h"
+#include "test_rng.h"
 
 #define STEP_US 250u
 #define CPR 16384.0
@@ -51,10 +52,7 @@ static const struct board *B;
 static uint32_t rng = 1;
 static uint32_t rnd(uint32_t n)
 {
-    rng ^= rng << 13;
-    rng ^= rng >> 17;
-    rng ^= rng << 5;
-    return rng % n;
+    return xorshift32(&rng) % n;
 }
 
 /* --- time ---------------------------------------------------------------------------- */

@@ -17,6 +17,7 @@
 #include <cmocka.h>
 
 #include "bus_host.h"
+#include "test_rng.h"
 
 #define RAD_TO_DEG 57.29577951308232
 
@@ -360,10 +361,8 @@ static struct {
 
 static uint32_t prnd(uint32_t n)
 {
-    prng ^= prng << 13;
-    prng ^= prng >> 17;
-    prng ^= prng << 5;
-    return n ? prng % n : 0;
+    uint32_t x = xorshift32(&prng);
+    return n ? x % n : 0;
 }
 
 static void note(const char *fmt, ...)

@@ -20,6 +20,7 @@
 #include "proto.h"
 #include "regs.h"
 #include "vbus.h"
+#include "test_rng.h"
 
 #define FAST_CODE 10u     /* register 4: 1792000 baud (§5.2) */
 #define FAST_BAUD 1792000u
@@ -321,10 +322,7 @@ struct pkt {
 static uint32_t rng = 0x2545F491u;
 static uint32_t rnd(void)
 {
-    rng ^= rng << 13;
-    rng ^= rng >> 17;
-    rng ^= rng << 5;
-    return rng;
+    return xorshift32(&rng);
 }
 
 /* A byte that is D5 or 5D half of the time. */

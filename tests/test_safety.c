@@ -14,6 +14,7 @@
 #include "hal_host.h"
 #include "proto.h"
 #include "servo.h"
+#include "test_rng.h"
 
 static struct hal hal;
 static struct servo s;
@@ -21,10 +22,7 @@ static uint32_t rng = 7;
 
 static uint32_t rnd(void)
 {
-    rng ^= rng << 13;
-    rng ^= rng >> 17;
-    rng ^= rng << 5;
-    return rng;
+    return xorshift32(&rng);
 }
 
 static void power_up(const struct board *b)

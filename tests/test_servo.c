@@ -12,14 +12,12 @@
 
 #include "proto.h"
 #include "vbus.h"
+#include "test_rng.h"
 
 static uint32_t rng_state = 12345;
 static uint32_t rnd(void)
 {
-    rng_state ^= rng_state << 13;
-    rng_state ^= rng_state >> 17;
-    rng_state ^= rng_state << 5;
-    return rng_state;
+    return xorshift32(&rng_state);
 }
 
 static struct vbus bus;
