@@ -300,6 +300,7 @@ class Ids:
         lowest UID (as printed: 24 hex digits, byte 0 first, compared as text) keeps the
         old ID; the
         others take the lowest free IDs in turn (from 1 up; `free` may give the list).
+        IdTaken, with nothing written, when there are fewer free IDs than servos to move.
         Returns [(uid, old id, new id)]."""
         idents = self.enumerate() if idents is None else _identities(idents)
         if free is not None:
@@ -308,17 +309,20 @@ class Ids:
         for i in idents:
             by_id[i.id].append(i)
         taken = set(by_id)
-        pool = [n for n in (free if free is not None else range(1, P.ID_MAX + 1))
-                if n not in taken]
+        # each free ID once (a list naming one twice would put two servos on it)
+        pool = [n for n in dict.fromkeys(free if free is not None else
+                                         range(1, P.ID_MAX + 1)) if n not in taken]
         moves = []
         for sid in sorted(by_id):
             group = sorted(by_id[sid], key=lambda i: i.uid)
             for ident in group[1:]:
-                if not pool:
-                    raise IdTaken("no free ID left for UID %s" % uid_text(ident.uid))
-                new = pool.pop(0)
-                self.set_id_by_uid(ident.uid, new, check_free=False, verify=False)
-                moves.append((ident.uid, sid, new))
+                moves.append((ident.uid, sid, pool.pop(0) if pool else None))
+        short = [m for m in moves if m[2] is None]
+        if short:  # refused before anything is written: never a half-separated bus
+            raise IdTaken("not enough free IDs: %d servo(s) share an ID, %d free ID(s); "
+                          "nothing was written" % (len(moves), len(moves) - len(short)))
+        for uid, _, new in moves:
+            self.set_id_by_uid(uid, new, check_free=False, verify=False)
         left = list(moves)
         for attempt in range(4):  # one check of them all; what did not take is sent again
             if not left:

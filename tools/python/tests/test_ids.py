@@ -10,7 +10,7 @@ import pytest
 from conftest import PYROOT
 from servobus import Bus, BusTimeout, ServoBusError
 from servobus import protocol as P
-from servobus.errors import DuplicateId
+from servobus.errors import DuplicateId, IdTaken
 from servobus.ids import ANSWER_BYTES, ENUMERATE, SUB, parse_uid, uid_text
 from servobus.registers import BAUD_RATES
 
@@ -175,3 +175,21 @@ def test_adopt_refuses_two_newcomers(sim_factory):
     assert rc == 1 and "there are 2" in err, (rc, out, err)
     with Bus(sim.url) as bus:
         assert sorted(i.id for i in bus.enumerate()) == [1, 2, 8, 9]  # nothing written
+
+
+def test_fix_without_enough_free_ids_refuses_before_writing_and_never_reuses_one(
+        sim_factory):
+    """Adversary (issue 27): three servos at ID 1 and one free ID for two of them.
+    --fix must refuse with nothing written, not move one and leave the bus half done;
+    and a free list naming one ID twice must not put two servos on it."""
+    sim = sim_factory("1:foot", "1:foot", "1:foot", "2:arm")
+    with Bus(sim.url) as bus:
+        idents = bus.enumerate()
+        with pytest.raises(IdTaken):
+            bus.fix_duplicates(idents, free=[2, 5])  # 2 is taken: only 5 is free
+        bus.pause(0.2)
+        assert sorted(i.id for i in bus.enumerate()) == [1, 1, 1, 2]  # nothing written
+        moves = bus.fix_duplicates(idents, free=[5, 5, 6])
+        assert sorted(m[2] for m in moves) == [5, 6]
+        assert sorted(i.id for i in bus.enumerate()) == [1, 2, 5, 6]
+
