@@ -20,8 +20,8 @@ import time
 
 from . import protocol as P
 from . import values as V
-from .errors import BusTimeout, DuplicateId, IdTaken, ProtocolError, RangeError, \
-    ServoBusError
+from .errors import BusTimeout, DuplicateId, DuplicateUid, IdTaken, ProtocolError, \
+    RangeError, ServoBusError
 from .link import check_id
 from .registers import BAUD_RATES, VARIANTS, baud_of_code, variant_by_model
 
@@ -84,7 +84,8 @@ def _uid_int(uid):
 def _decode(raw):
     """An answer's 36 bytes -> ("one", Identity) for a single talker, ("and", U, C) for
     answers superimposed bit for bit (U the AND of the UIDs, C of their complements),
-    or None for garbage."""
+    ("clone", uid) for answers superimposed whose UIDs are one (each UID bit and its
+    complement intact, the checksum not: two servos report that UID), or None."""
     if len(raw) != ANSWER_BYTES or raw[:4] != HEADER:
         return None
     uid, comp = raw[6:18], raw[23:35]
@@ -97,6 +98,8 @@ def _decode(raw):
         baud = baud_of_code(raw[22], variant_by_model(model)) \
             if raw[22] <= len(BAUD_RATES) else None
         return ("one", Identity(bytes(uid), raw[18], name, model, baud, raw[4]))
+    if u ^ c == full and raw[5] in (ENUMERATE, IDENTIFY):
+        return ("clone", bytes(uid))
     if u & c == 0 and u | c != full:
         return ("and", u, c, raw[5])
     return None
@@ -164,7 +167,9 @@ class Ids:
         """One ENUMERATE: servos whose UID starts with the k-nibble prefix (an int, bit i
         of the UID its bit i) answer in 16 slots. Returns (identities, splits, garbled):
         splits a list of (k', prefix') to ask next, read from superimposed answers;
-        garbled True if bytes came that no slot can be told from."""
+        garbled True if bytes came that no slot can be told from. self.round_clones: the
+        UIDs (as text) whose answer kept the UID and its complement but not the checksum:
+        two servos with that UID, or one answer hit by noise outside its UID."""
         V.strict_integer(k, "prefix nibbles", 0, NIBBLES - 1)
         if isinstance(prefix, bool) or not isinstance(prefix, int) or prefix < 0:
             raise RangeError("prefix %r: give the UID's first bits as an int >= 0" % (prefix,))
@@ -173,10 +178,14 @@ class Ids:
         window = TURNAROUND_S + SLOTS * slot_time(self.baud)
         found, garbage = self._ident(P.BROADCAST, ENUMERATE, bytes([k]) + pbytes, window)
         ids, splits = [], []
+        self.round_clones = set()
         mask = (1 << bits) - 1
         for got in found:
             if got[0] == "one":
                 ids.append(got[1])
+                continue
+            if got[0] == "clone":
+                self.round_clones.add(uid_text(got[1]))
                 continue
             _, u, c, _op = got
             if u & mask != prefix & mask or (~c) & mask != prefix & mask:
@@ -194,8 +203,12 @@ class Ids:
 
     def enumerate(self, max_rounds=5000):
         """Every servo on the bus at this baud, whatever its ID: a list of Identity sorted
-        by (id, uid). self.enumerate_rounds says how many ENUMERATE rounds it took."""
+        by (id, uid). self.enumerate_rounds says how many ENUMERATE rounds it took.
+        DuplicateUid (its .found the servos told apart) when two servos report one UID
+        (a cloned part)."""
         V.strict_integer(max_rounds, "max_rounds", 1, 100000)
+        self.enumerate_clones = set()
+        again = set()  # rounds asked twice: a clone's signs, or noise once?
         found = {}
         # (k, prefix, fallback): fallback is asked when a split read from a superposed
         # answer finds nobody clean (garbage that looked like a superposition)
@@ -225,8 +238,28 @@ class Ids:
                 for s in range(SLOTS):
                     if s not in clean:
                         todo.append((k + 1, prefix | s << (4 * k), None))
+            # Two servos with one UID: their answers keep the UID and its complement but
+            # not the checksum, or, garbled, still garble at the last nibble. Noise does
+            # that once; a clone every time the round is asked.
+            deepest = garbled and k + 1 == NIBBLES
+            if (self.round_clones or deepest) and (k, prefix) not in again:
+                again.add((k, prefix))
+                asked.discard((k, prefix))
+                todo.append((k, prefix, None))
+                continue
+            self.enumerate_clones |= self.round_clones
+            if deepest:  # nibble k (text digit 22: byte 11's high nibble) unknown
+                text = uid_text(prefix.to_bytes(UID_BYTES, "little"))
+                self.enumerate_clones.add(text[:22] + "?" + text[23:])
         self.enumerate_rounds = rounds
-        return sorted(found.values(), key=lambda i: (i.id, i.uid))
+        found = sorted(found.values(), key=lambda i: (i.id, i.uid))
+        clones = sorted(self.enumerate_clones - {uid_text(i.uid) for i in found})
+        if clones:
+            raise DuplicateUid(
+                "more than one servo reports UID %s (a cloned or copied part): they cannot "
+                "be told apart by UID; %d other servo(s) found" % (
+                    ", ".join(clones), len(found)), found, clones)
+        return found
 
     def identify(self, uid=None, servo_id=None):
         """The Identity of the servo with uid (at any ID), or of the one at servo_id.
