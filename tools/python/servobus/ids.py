@@ -286,11 +286,12 @@ class Ids:
         who = "UID %s" % uid_text(uid) if uid is not None else "ID %d" % servo_id
         raise BusTimeout("%s does not answer IDENTIFY %s" % (who, self._where()), servo_id)
 
-    def set_id_by_uid(self, uid, new_id, check_free=True, verify=True):
+    def set_id_by_uid(self, uid, new_id, check_free=True, verify=True, old_id=None):
         """Give the servo with uid (at any ID, others may share it) the ID new_id, kept in
         flash as any ID write; then confirm it by IDENTIFY. IdTaken if another servo
         already answers at new_id (check_free). verify=False: one broadcast frame, no
-        check (fix_duplicates checks them all with one enumerate())."""
+        check (fix_duplicates checks them all with one enumerate()); old_id its ID then,
+        for the commit budget (the servo's estimate goes with it to the new ID)."""
         uid = parse_uid(uid)
         if isinstance(new_id, bool) or not isinstance(new_id, int) or \
                 not 0 <= new_id <= P.ID_MAX:
@@ -303,7 +304,7 @@ class Ids:
             self._quiet_at = max(self._quiet_at, time.monotonic()) + \
                 len(frame) * P.byte_time(self.baud)
             self._variants.pop(new_id, None)
-            self._count_commit(new_id)
+            self._count_commit(new_id, old_id)
             return None
         before = self.identify(uid)
         if before.id == new_id:
@@ -320,12 +321,14 @@ class Ids:
             except BusTimeout:
                 continue
             if after.id == new_id:
-                self._count_commit(new_id)
+                self._count_commit(new_id, before.id)
                 return after
         raise ProtocolError("UID %s did not take ID %d" % (uid_text(uid), new_id))
 
-    def _count_commit(self, new_id):
+    def _count_commit(self, new_id, old_id):
         if SET_ID_COMMITS:
+            if old_id is not None and old_id != new_id:  # its bucket, not a fresh one
+                self.commit_budget.copied(self.budget_key(old_id), self.budget_key(new_id))
             self.commit_wait = self.commit_budget.commit(self.budget_key(new_id))
 
     def fix_duplicates(self, idents=None, free=None):
@@ -354,8 +357,8 @@ class Ids:
         if short:  # refused before anything is written: never a half-separated bus
             raise IdTaken("not enough free IDs: %d servo(s) share an ID, %d free ID(s); "
                           "nothing was written" % (len(moves), len(moves) - len(short)))
-        for uid, _, new in moves:
-            self.set_id_by_uid(uid, new, check_free=False, verify=False)
+        for uid, old, new in moves:
+            self.set_id_by_uid(uid, new, check_free=False, verify=False, old_id=old)
         left = list(moves)
         for attempt in range(4):  # one check of them all; what did not take is sent again
             if not left:
@@ -363,8 +366,8 @@ class Ids:
             self.pause(0.05)
             now = {i.uid: i.id for i in self.enumerate()}
             left = [m for m in left if now.get(m[0]) != m[2]]
-            for uid, _, new in left if attempt < 3 else ():
-                self.set_id_by_uid(uid, new, check_free=False, verify=False)
+            for uid, old, new in left if attempt < 3 else ():
+                self.set_id_by_uid(uid, new, check_free=False, verify=False, old_id=old)
         if left:
             raise ProtocolError("%d servo(s) did not take their new ID: %s" % (
                 len(left), ", ".join("UID %s -> %d" % (uid_text(u), n) for u, _, n in left)))

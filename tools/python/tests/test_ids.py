@@ -299,3 +299,20 @@ def test_one_answer_hit_by_noise_is_not_taken_for_a_clone():
     with Bus(wire.url) as bus:
         got = bus.enumerate()
     assert [(i.uid, i.id) for i in got] == [(CLONE, 3)] and wire.rounds == 2
+
+
+def test_a_new_id_by_uid_takes_the_servos_commit_budget_along(sim_factory):
+    """Adversary (issue 27): servos that have spent their flash commits at ID 1 (as
+    this host counted them) are moved by UID. The estimate must follow each: its bucket
+    is empty, so the SET ID's commit waits (commit_wait > 0: the `do not cut the power`
+    note), not a fresh bucket at the new ID that says 0."""
+    from servobus.budget import BURST
+    uid = "0102030405060708090a0b0c"
+    sim = sim_factory("1:arm:" + uid, "1:foot")
+    with Bus(sim.url) as bus:
+        for _ in range(BURST):
+            bus.commit_budget.commit(bus.budget_key(1))
+        assert len(bus.fix_duplicates()) == 1
+        assert bus.commit_wait > 0
+        assert bus.set_id_by_uid(uid, 3).id == 3  # from 1 or 2: both buckets are empty
+        assert bus.commit_wait > 0
