@@ -20,8 +20,8 @@ import time
 
 from . import protocol as P
 from . import values as V
-from .errors import BusTimeout, DuplicateId, DuplicateUid, IdTaken, ProtocolError, \
-    RangeError, ServoBusError
+from .errors import BusTimeout, DuplicateId, DuplicateUid, IdTaken, Interrupted, \
+    ProtocolError, RangeError, ServoBusError
 from .link import check_id
 from .registers import BAUD_RATES, VARIANTS, baud_of_code, variant_by_model
 
@@ -335,7 +335,8 @@ class Ids:
         """Give every servo that shares an ID with another a free ID. The one with the
         lowest UID (as printed: 24 hex digits, byte 0 first, compared as text) keeps the
         old ID; the
-        others take the lowest free IDs in turn (from 1 up; `free` may give the list).
+        others take the lowest free IDs in turn (from 1 up; `free` may give the list),
+        never one a servo holds at another baud the port can reach.
         IdTaken, with nothing written, when there are fewer free IDs than servos to move.
         Returns [(uid, old id, new id)]."""
         idents = self.enumerate() if idents is None else _identities(idents)
@@ -345,6 +346,8 @@ class Ids:
         for i in idents:
             by_id[i.id].append(i)
         taken = set(by_id)
+        if any(len(g) > 1 for g in by_id.values()):  # only when an ID is to be given
+            taken |= self._ids_at_other_bauds()
         # each free ID once (a list naming one twice would put two servos on it)
         pool = [n for n in dict.fromkeys(free if free is not None else
                                          range(1, P.ID_MAX + 1)) if n not in taken]
@@ -372,6 +375,30 @@ class Ids:
             raise ProtocolError("%d servo(s) did not take their new ID: %s" % (
                 len(left), ", ".join("UID %s -> %d" % (uid_text(u), n) for u, _, n in left)))
         return moves
+
+    def _ids_at_other_bauds(self):
+        """The IDs of servos at the other bauds this port can reach (one enumerate() at
+        each; none over tcp://, which hears every baud): a servo there shares an ID as
+        soon as either changes its baud, so set_id refuses such an ID, and so does this."""
+        start, ids = self.baud, set()
+        try:
+            for baud in self.reachable_bauds():
+                if baud == start:
+                    continue
+                try:
+                    self.set_baud(baud)
+                except Interrupted:
+                    raise
+                except ServoBusError:
+                    continue  # the adapter cannot do it: no servo is reachable there
+                try:
+                    ids |= {i.id for i in self.enumerate()}
+                except DuplicateUid as e:
+                    ids |= {i.id for i in e.found}
+        finally:
+            if self.baud != start:
+                self.set_baud(start)
+        return ids
 
     def adopt(self, expect, idents=None, known=None):
         """A replacement servo: of the expected IDs exactly one is silent, and exactly one

@@ -316,3 +316,18 @@ def test_a_new_id_by_uid_takes_the_servos_commit_budget_along(sim_factory):
         assert bus.commit_wait > 0
         assert bus.set_id_by_uid(uid, 3).id == 3  # from 1 or 2: both buckets are empty
         assert bus.commit_wait > 0
+
+
+def test_fix_never_gives_an_id_a_servo_holds_at_another_baud(sim_factory):
+    """Adversary (issue 27): on a serial line (rfc2217://, where servo-sim models the
+    baud) a servo at 115200 holds ID 2 while three share ID 1 at 9600. --fix must not
+    give ID 2 to one of them (two servos on ID 2 as soon as either changes its baud;
+    set_id refuses that for the same reason): the IDs of every reachable baud are taken."""
+    sim = sim_factory("1:foot", "1:foot", "1:foot", "2:arm")
+    with Bus(sim.url) as bus:
+        bus.send(2, P.WRITE, bytes([4, BAUD_RATES.index(115200) + 1]))
+        bus.pause(0.3)
+    with Bus(sim.url.replace("tcp://", "rfc2217://")) as bus:
+        moves = bus.fix_duplicates()
+        assert sorted(m[2] for m in moves) == [3, 4]
+        assert bus.baud == 9600 and sorted(i.id for i in bus.enumerate()) == [1, 3, 4]
