@@ -336,7 +336,8 @@ class Ids:
         lowest UID (as printed: 24 hex digits, byte 0 first, compared as text) keeps the
         old ID; the
         others take the lowest free IDs in turn (from 1 up; `free` may give the list),
-        never one a servo holds at another baud the port can reach.
+        never one a servo holds at another baud the port can reach, nor one that answers
+        a broadcast PING (a servo in a §10 update session keeps out of ENUMERATE).
         IdTaken, with nothing written, when there are fewer free IDs than servos to move.
         Returns [(uid, old id, new id)]."""
         idents = self.enumerate() if idents is None else _identities(idents)
@@ -348,6 +349,8 @@ class Ids:
         taken = set(by_id)
         if any(len(g) > 1 for g in by_id.values()):  # only when an ID is to be given
             taken |= self._ids_at_other_bauds()
+            # a servo in a §10 update session answers PING, never ENUMERATE
+            taken |= {f.id for f in self.scan()}
         # each free ID once (a list naming one twice would put two servos on it)
         pool = [n for n in dict.fromkeys(free if free is not None else
                                          range(1, P.ID_MAX + 1)) if n not in taken]

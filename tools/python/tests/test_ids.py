@@ -331,3 +331,16 @@ def test_fix_never_gives_an_id_a_servo_holds_at_another_baud(sim_factory):
         moves = bus.fix_duplicates()
         assert sorted(m[2] for m in moves) == [3, 4]
         assert bus.baud == 9600 and sorted(i.id for i in bus.enumerate()) == [1, 3, 4]
+
+
+def test_fix_never_gives_the_id_of_a_servo_in_an_update_session(sim_factory):
+    """Adversary (issue 27): the servo at ID 2 is in a §10 update session: it answers
+    PING but no identity op (an update session only reports). --fix must not give ID 2
+    to one of the two servos at ID 1: the session ends and two servos share ID 2."""
+    sim = sim_factory("1:foot", "1:foot", "2:arm")
+    with Bus(sim.url) as bus:
+        bus.send(2, P.CUSTOM, bytes([P.UPDATE_ENTER]))  # what `servoctl update` sends first
+        bus.pause(0.3)
+        assert sorted(i.id for i in bus.enumerate()) == [1, 1]  # it keeps out of ENUMERATE
+        moves = bus.fix_duplicates()
+        assert [m[2] for m in moves] == [3]
