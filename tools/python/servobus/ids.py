@@ -408,7 +408,10 @@ class Ids:
         servo is new: it answers at an ID outside them, or shares an expected ID (a
         factory-fresh servo at ID 1 beside the old ID 1) while `known` (a dict UID ->
         ID, from an earlier `servoctl ids`) names the other one as the old servo there.
-        Give it the missing ID, then this bus's baud (register 4) if it talks at another.
+        Give it the missing ID, then this bus's baud (register 4) if it talks at another;
+        when no newcomer answers at this baud, it is looked for at the others (the
+        factory's first; over tcp:// too: a slower servo's answers outlast this baud's
+        window).
         Refuses (ServoBusError, nothing written) when that is ambiguous: no or several
         silent IDs, no or several newcomers, or two servos on an expected ID that
         `known` cannot tell apart. Returns (uid, new id)."""
@@ -420,6 +423,7 @@ class Ids:
         expect = sorted(set(_id_list(expect, "expected IDs")))
         if not expect:
             raise RangeError("adopt: give the expected IDs")
+        idents_given = idents
         idents = self.enumerate() if idents is None else _identities(idents)
         present = collections.Counter(i.id for i in idents)
         newcomers = [i for i in idents if i.id not in expect]
@@ -441,18 +445,47 @@ class Ids:
                 "none is silent" if not missing else
                 "silent: %s" % ", ".join(map(str, missing))))
         new = newcomers
+        bus_baud = self.baud
+        if not new and idents_given is None:
+            new = self._newcomer_at_other_bauds()  # a factory-fresh one: 9600 or 115200
         if len(new) != 1:
             raise ServoBusError("adopt needs exactly one servo outside the expected IDs; "
                                 "%s" % ("there is none" if not new else "there are %d (%s)" % (
                                     len(new), ", ".join("ID %d UID %s" % (i.id, uid_text(i.uid))
                                                         for i in new))))
-        got = self.set_id_by_uid(new[0].uid, missing[0], check_free=False)
-        if got.baud != self.baud:
-            # Its answer would come at its old baud, which a serial host does not hear:
-            # sent without waiting, then proved by IDENTIFY at the new one.
-            self.send(missing[0], P.WRITE, bytes([4, BAUD_RATES.index(self.baud) + 1]))
-            self._late_until(b"", 8)
-            self.pause(0.05)
-            if self.identify(new[0].uid).baud != self.baud:
-                raise ProtocolError("ID %d did not take %d baud" % (missing[0], self.baud))
+        try:  # at the newcomer's baud (where it was found)
+            got = self.set_id_by_uid(new[0].uid, missing[0], check_free=False)
+            if got.baud != bus_baud:
+                # Its answer would come at its old baud, which a serial host does not
+                # hear: sent without waiting, then proved by IDENTIFY at the new one.
+                self.send(missing[0], P.WRITE, bytes([4, BAUD_RATES.index(bus_baud) + 1]))
+                self._late_until(b"", 8)
+                self.pause(0.05)
+        finally:
+            if self.baud != bus_baud:
+                self.set_baud(bus_baud)
+        if got.baud != bus_baud and self.identify(new[0].uid).baud != bus_baud:
+            raise ProtocolError("ID %d did not take %d baud" % (missing[0], bus_baud))
         return new[0].uid, missing[0]
+
+    def _newcomer_at_other_bauds(self):
+        """No newcomer at this baud: the servos whose register 4 says another baud, found
+        at the first other baud that has any (the factory's first), this Bus left at
+        that baud; [] (and the Bus at its own baud) if none."""
+        start = self.baud
+        factory = [9600, 115200]  # register 4 code 0: base 115200, the others 9600
+        for baud in factory + [b for b in BAUD_RATES if b not in factory]:
+            if baud == start:
+                continue
+            try:
+                self.set_baud(baud)
+                found = [i for i in self.enumerate() if i.baud != start]
+            except Interrupted:
+                self.set_baud(start)
+                raise
+            except ServoBusError:
+                continue  # the adapter cannot do it, or clones there: not this one
+            if found:
+                return found
+        self.set_baud(start)
+        return []

@@ -344,3 +344,22 @@ def test_fix_never_gives_the_id_of_a_servo_in_an_update_session(sim_factory):
         assert sorted(i.id for i in bus.enumerate()) == [1, 1]  # it keeps out of ENUMERATE
         moves = bus.fix_duplicates()
         assert [m[2] for m in moves] == [3]
+
+
+def test_adopt_finds_a_factory_fresh_servo_at_its_own_baud(sim_factory, tmp_path):
+    """Adversary (issue 27): the bus runs at 115200 (IDs 2 and 3), ID 4 died, and its
+    factory-fresh replacement talks at 9600 at ID 1. Over a serial line (rfc2217://,
+    where servo-sim models the baud) `servoctl adopt --baud 115200 --expect 2,3,4`
+    must find it at its own baud and give it ID 4 and the bus's baud."""
+    sim = sim_factory("2:foot", "3:arm", "1:foot")
+    with Bus(sim.url) as bus:
+        for i in (2, 3):
+            bus.send(i, P.WRITE, bytes([4, BAUD_RATES.index(115200) + 1]))
+            bus.pause(0.3)
+    port = sim.url.replace("tcp://", "rfc2217://")
+    rc, out, err = servoctl("--port", port, "--baud", "115200", "adopt", "--expect", "2,3,4",
+                            env={"SERVOBUS_STATE": str(tmp_path / "budget.json")})
+    assert rc == 0 and "adopted as ID 4 at 115200 baud" in out, (rc, out, err)
+    with Bus(port, baud=115200) as bus:
+        assert sorted((i.id, i.baud) for i in bus.enumerate()) == [
+            (2, 115200), (3, 115200), (4, 115200)]
