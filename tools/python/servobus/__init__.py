@@ -9,9 +9,9 @@ on servo-sim over TCP.
 """
 
 from .bus import Bus, Found, HomingStatus, UpdateStats
-from .errors import (BusTimeout, ChecksumError, DuplicateId, IdTaken, InstructionError,
-                     Interrupted, MotionRefused, NotApplied, ProtocolError, RangeError,
-                     ServoBusError, ServoFault, StatusError, UnknownRegister, UpdateError,
+from .errors import (BusTimeout, ChecksumError, DuplicateId, DuplicateUid, IdTaken,
+                     InstructionError, Interrupted, MotionRefused, NotApplied, ProtocolError,
+                     RangeError, ServoBusError, ServoFault, StatusError, UnknownRegister, UpdateError,
                      UpdateRefused, UpdateTimeout)
 from .image import ImageError
 from .protocol import BROADCAST
@@ -21,7 +21,7 @@ __all__ = [
     "Bus", "Found", "HomingStatus", "UpdateStats", "BROADCAST", "REGISTERS", "VARIANTS",
     "register",
     "ServoBusError", "BusTimeout", "ProtocolError", "RangeError", "UnknownRegister",
-    "IdTaken", "DuplicateId", "NotApplied", "Interrupted", "StatusError",
+    "IdTaken", "DuplicateId", "DuplicateUid", "NotApplied", "Interrupted", "StatusError",
     "InstructionError", "MotionRefused", "ChecksumError",
     "ServoFault", "UpdateError", "UpdateRefused", "UpdateTimeout", "ImageError",
 ]

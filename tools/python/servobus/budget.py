@@ -80,6 +80,13 @@ class CommitBudget:
             self._state[new_key] = self._state.pop(key)
             self._save(self.clock())
 
+    def copied(self, key, new_key):
+        """A servo left an ID that others may still answer at (duplicates, issue 27):
+        the new ID starts from the old one's estimate, which stays for the others."""
+        if key in self._state:
+            self._state[new_key] = list(self._state[key])
+            self._save(self.clock())
+
     def _save(self, now):
         if not self.path:
             return

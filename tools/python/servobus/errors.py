@@ -53,6 +53,17 @@ class DuplicateId(ServoBusError):
     """Two (or more) servos answer at one ID: anything sent to it reaches both."""
 
 
+class DuplicateUid(ServoBusError):
+    """Two (or more) servos report one unique ID (a cloned or copied part): ENUMERATE
+    cannot tell them apart. found: every servo that enumerate() could tell apart; uids:
+    the shared UIDs as text (24 hex digits; "?" for a digit garbled answers hid)."""
+
+    def __init__(self, message, found=(), uids=()):
+        super().__init__(message)
+        self.found = list(found)
+        self.uids = list(uids)
+
+
 class NotApplied(ServoBusError):
     """A servo that does not answer writes (status return level 0 or 1) did not take
     one: reading back showed the old value."""

@@ -20,8 +20,8 @@ import time
 
 from . import protocol as P
 from . import values as V
-from .errors import BusTimeout, DuplicateId, IdTaken, ProtocolError, RangeError, \
-    ServoBusError
+from .errors import BusTimeout, DuplicateId, DuplicateUid, IdTaken, Interrupted, \
+    ProtocolError, RangeError, ServoBusError
 from .link import check_id
 from .registers import BAUD_RATES, VARIANTS, baud_of_code, variant_by_model
 
@@ -84,7 +84,8 @@ def _uid_int(uid):
 def _decode(raw):
     """An answer's 36 bytes -> ("one", Identity) for a single talker, ("and", U, C) for
     answers superimposed bit for bit (U the AND of the UIDs, C of their complements),
-    or None for garbage."""
+    ("clone", uid) for answers superimposed whose UIDs are one (each UID bit and its
+    complement intact, the checksum not: two servos report that UID), or None."""
     if len(raw) != ANSWER_BYTES or raw[:4] != HEADER:
         return None
     uid, comp = raw[6:18], raw[23:35]
@@ -97,6 +98,8 @@ def _decode(raw):
         baud = baud_of_code(raw[22], variant_by_model(model)) \
             if raw[22] <= len(BAUD_RATES) else None
         return ("one", Identity(bytes(uid), raw[18], name, model, baud, raw[4]))
+    if u ^ c == full and raw[5] in (ENUMERATE, IDENTIFY):
+        return ("clone", bytes(uid))
     if u & c == 0 and u | c != full:
         return ("and", u, c, raw[5])
     return None
@@ -164,7 +167,9 @@ class Ids:
         """One ENUMERATE: servos whose UID starts with the k-nibble prefix (an int, bit i
         of the UID its bit i) answer in 16 slots. Returns (identities, splits, garbled):
         splits a list of (k', prefix') to ask next, read from superimposed answers;
-        garbled True if bytes came that no slot can be told from."""
+        garbled True if bytes came that no slot can be told from. self.round_clones: the
+        UIDs (as text) whose answer kept the UID and its complement but not the checksum:
+        two servos with that UID, or one answer hit by noise outside its UID."""
         V.strict_integer(k, "prefix nibbles", 0, NIBBLES - 1)
         if isinstance(prefix, bool) or not isinstance(prefix, int) or prefix < 0:
             raise RangeError("prefix %r: give the UID's first bits as an int >= 0" % (prefix,))
@@ -173,10 +178,14 @@ class Ids:
         window = TURNAROUND_S + SLOTS * slot_time(self.baud)
         found, garbage = self._ident(P.BROADCAST, ENUMERATE, bytes([k]) + pbytes, window)
         ids, splits = [], []
+        self.round_clones = set()
         mask = (1 << bits) - 1
         for got in found:
             if got[0] == "one":
                 ids.append(got[1])
+                continue
+            if got[0] == "clone":
+                self.round_clones.add(uid_text(got[1]))
                 continue
             _, u, c, _op = got
             if u & mask != prefix & mask or (~c) & mask != prefix & mask:
@@ -194,8 +203,12 @@ class Ids:
 
     def enumerate(self, max_rounds=5000):
         """Every servo on the bus at this baud, whatever its ID: a list of Identity sorted
-        by (id, uid). self.enumerate_rounds says how many ENUMERATE rounds it took."""
+        by (id, uid). self.enumerate_rounds says how many ENUMERATE rounds it took.
+        DuplicateUid (its .found the servos told apart) when two servos report one UID
+        (a cloned part)."""
         V.strict_integer(max_rounds, "max_rounds", 1, 100000)
+        self.enumerate_clones = set()
+        again = set()  # rounds asked twice: a clone's signs, or noise once?
         found = {}
         # (k, prefix, fallback): fallback is asked when a split read from a superposed
         # answer finds nobody clean (garbage that looked like a superposition)
@@ -225,8 +238,28 @@ class Ids:
                 for s in range(SLOTS):
                     if s not in clean:
                         todo.append((k + 1, prefix | s << (4 * k), None))
+            # Two servos with one UID: their answers keep the UID and its complement but
+            # not the checksum, or, garbled, still garble at the last nibble. Noise does
+            # that once; a clone every time the round is asked.
+            deepest = garbled and k + 1 == NIBBLES
+            if (self.round_clones or deepest) and (k, prefix) not in again:
+                again.add((k, prefix))
+                asked.discard((k, prefix))
+                todo.append((k, prefix, None))
+                continue
+            self.enumerate_clones |= self.round_clones
+            if deepest:  # nibble k (text digit 22: byte 11's high nibble) unknown
+                text = uid_text(prefix.to_bytes(UID_BYTES, "little"))
+                self.enumerate_clones.add(text[:22] + "?" + text[23:])
         self.enumerate_rounds = rounds
-        return sorted(found.values(), key=lambda i: (i.id, i.uid))
+        found = sorted(found.values(), key=lambda i: (i.id, i.uid))
+        clones = sorted(self.enumerate_clones - {uid_text(i.uid) for i in found})
+        if clones:
+            raise DuplicateUid(
+                "more than one servo reports UID %s (a cloned or copied part): they cannot "
+                "be told apart by UID; %d other servo(s) found" % (
+                    ", ".join(clones), len(found)), found, clones)
+        return found
 
     def identify(self, uid=None, servo_id=None):
         """The Identity of the servo with uid (at any ID), or of the one at servo_id.
@@ -253,11 +286,12 @@ class Ids:
         who = "UID %s" % uid_text(uid) if uid is not None else "ID %d" % servo_id
         raise BusTimeout("%s does not answer IDENTIFY %s" % (who, self._where()), servo_id)
 
-    def set_id_by_uid(self, uid, new_id, check_free=True, verify=True):
+    def set_id_by_uid(self, uid, new_id, check_free=True, verify=True, old_id=None):
         """Give the servo with uid (at any ID, others may share it) the ID new_id, kept in
         flash as any ID write; then confirm it by IDENTIFY. IdTaken if another servo
         already answers at new_id (check_free). verify=False: one broadcast frame, no
-        check (fix_duplicates checks them all with one enumerate())."""
+        check (fix_duplicates checks them all with one enumerate()); old_id its ID then,
+        for the commit budget (the servo's estimate goes with it to the new ID)."""
         uid = parse_uid(uid)
         if isinstance(new_id, bool) or not isinstance(new_id, int) or \
                 not 0 <= new_id <= P.ID_MAX:
@@ -270,7 +304,7 @@ class Ids:
             self._quiet_at = max(self._quiet_at, time.monotonic()) + \
                 len(frame) * P.byte_time(self.baud)
             self._variants.pop(new_id, None)
-            self._count_commit(new_id)
+            self._count_commit(new_id, old_id)
             return None
         before = self.identify(uid)
         if before.id == new_id:
@@ -287,19 +321,24 @@ class Ids:
             except BusTimeout:
                 continue
             if after.id == new_id:
-                self._count_commit(new_id)
+                self._count_commit(new_id, before.id)
                 return after
         raise ProtocolError("UID %s did not take ID %d" % (uid_text(uid), new_id))
 
-    def _count_commit(self, new_id):
+    def _count_commit(self, new_id, old_id):
         if SET_ID_COMMITS:
+            if old_id is not None and old_id != new_id:  # its bucket, not a fresh one
+                self.commit_budget.copied(self.budget_key(old_id), self.budget_key(new_id))
             self.commit_wait = self.commit_budget.commit(self.budget_key(new_id))
 
     def fix_duplicates(self, idents=None, free=None):
         """Give every servo that shares an ID with another a free ID. The one with the
         lowest UID (as printed: 24 hex digits, byte 0 first, compared as text) keeps the
         old ID; the
-        others take the lowest free IDs in turn (from 1 up; `free` may give the list).
+        others take the lowest free IDs in turn (from 1 up; `free` may give the list),
+        never one a servo holds at another baud the port can reach, nor one that answers
+        a broadcast PING (a servo in a §10 update session keeps out of ENUMERATE).
+        IdTaken, with nothing written, when there are fewer free IDs than servos to move.
         Returns [(uid, old id, new id)]."""
         idents = self.enumerate() if idents is None else _identities(idents)
         if free is not None:
@@ -308,17 +347,24 @@ class Ids:
         for i in idents:
             by_id[i.id].append(i)
         taken = set(by_id)
-        pool = [n for n in (free if free is not None else range(1, P.ID_MAX + 1))
-                if n not in taken]
+        if any(len(g) > 1 for g in by_id.values()):  # only when an ID is to be given
+            taken |= self._ids_at_other_bauds()
+            # a servo in a §10 update session answers PING, never ENUMERATE
+            taken |= {f.id for f in self.scan()}
+        # each free ID once (a list naming one twice would put two servos on it)
+        pool = [n for n in dict.fromkeys(free if free is not None else
+                                         range(1, P.ID_MAX + 1)) if n not in taken]
         moves = []
         for sid in sorted(by_id):
             group = sorted(by_id[sid], key=lambda i: i.uid)
             for ident in group[1:]:
-                if not pool:
-                    raise IdTaken("no free ID left for UID %s" % uid_text(ident.uid))
-                new = pool.pop(0)
-                self.set_id_by_uid(ident.uid, new, check_free=False, verify=False)
-                moves.append((ident.uid, sid, new))
+                moves.append((ident.uid, sid, pool.pop(0) if pool else None))
+        short = [m for m in moves if m[2] is None]
+        if short:  # refused before anything is written: never a half-separated bus
+            raise IdTaken("not enough free IDs: %d servo(s) share an ID, %d free ID(s); "
+                          "nothing was written" % (len(moves), len(moves) - len(short)))
+        for uid, old, new in moves:
+            self.set_id_by_uid(uid, new, check_free=False, verify=False, old_id=old)
         left = list(moves)
         for attempt in range(4):  # one check of them all; what did not take is sent again
             if not left:
@@ -326,19 +372,46 @@ class Ids:
             self.pause(0.05)
             now = {i.uid: i.id for i in self.enumerate()}
             left = [m for m in left if now.get(m[0]) != m[2]]
-            for uid, _, new in left if attempt < 3 else ():
-                self.set_id_by_uid(uid, new, check_free=False, verify=False)
+            for uid, old, new in left if attempt < 3 else ():
+                self.set_id_by_uid(uid, new, check_free=False, verify=False, old_id=old)
         if left:
             raise ProtocolError("%d servo(s) did not take their new ID: %s" % (
                 len(left), ", ".join("UID %s -> %d" % (uid_text(u), n) for u, _, n in left)))
         return moves
+
+    def _ids_at_other_bauds(self):
+        """The IDs of servos at the other bauds this port can reach (one enumerate() at
+        each; none over tcp://, which hears every baud): a servo there shares an ID as
+        soon as either changes its baud, so set_id refuses such an ID, and so does this."""
+        start, ids = self.baud, set()
+        try:
+            for baud in self.reachable_bauds():
+                if baud == start:
+                    continue
+                try:
+                    self.set_baud(baud)
+                except Interrupted:
+                    raise
+                except ServoBusError:
+                    continue  # the adapter cannot do it: no servo is reachable there
+                try:
+                    ids |= {i.id for i in self.enumerate()}
+                except DuplicateUid as e:
+                    ids |= {i.id for i in e.found}
+        finally:
+            if self.baud != start:
+                self.set_baud(start)
+        return ids
 
     def adopt(self, expect, idents=None, known=None):
         """A replacement servo: of the expected IDs exactly one is silent, and exactly one
         servo is new: it answers at an ID outside them, or shares an expected ID (a
         factory-fresh servo at ID 1 beside the old ID 1) while `known` (a dict UID ->
         ID, from an earlier `servoctl ids`) names the other one as the old servo there.
-        Give it the missing ID, then this bus's baud (register 4) if it talks at another.
+        Give it the missing ID, then this bus's baud (register 4) if it talks at another;
+        when no newcomer answers at this baud, it is looked for at the others (the
+        factory's first; over tcp:// too: a slower servo's answers outlast this baud's
+        window).
         Refuses (ServoBusError, nothing written) when that is ambiguous: no or several
         silent IDs, no or several newcomers, or two servos on an expected ID that
         `known` cannot tell apart. Returns (uid, new id)."""
@@ -350,6 +423,7 @@ class Ids:
         expect = sorted(set(_id_list(expect, "expected IDs")))
         if not expect:
             raise RangeError("adopt: give the expected IDs")
+        idents_given = idents
         idents = self.enumerate() if idents is None else _identities(idents)
         present = collections.Counter(i.id for i in idents)
         newcomers = [i for i in idents if i.id not in expect]
@@ -371,18 +445,47 @@ class Ids:
                 "none is silent" if not missing else
                 "silent: %s" % ", ".join(map(str, missing))))
         new = newcomers
+        bus_baud = self.baud
+        if not new and idents_given is None:
+            new = self._newcomer_at_other_bauds()  # a factory-fresh one: 9600 or 115200
         if len(new) != 1:
             raise ServoBusError("adopt needs exactly one servo outside the expected IDs; "
                                 "%s" % ("there is none" if not new else "there are %d (%s)" % (
                                     len(new), ", ".join("ID %d UID %s" % (i.id, uid_text(i.uid))
                                                         for i in new))))
-        got = self.set_id_by_uid(new[0].uid, missing[0], check_free=False)
-        if got.baud != self.baud:
-            # Its answer would come at its old baud, which a serial host does not hear:
-            # sent without waiting, then proved by IDENTIFY at the new one.
-            self.send(missing[0], P.WRITE, bytes([4, BAUD_RATES.index(self.baud) + 1]))
-            self._late_until(b"", 8)
-            self.pause(0.05)
-            if self.identify(new[0].uid).baud != self.baud:
-                raise ProtocolError("ID %d did not take %d baud" % (missing[0], self.baud))
+        try:  # at the newcomer's baud (where it was found)
+            got = self.set_id_by_uid(new[0].uid, missing[0], check_free=False)
+            if got.baud != bus_baud:
+                # Its answer would come at its old baud, which a serial host does not
+                # hear: sent without waiting, then proved by IDENTIFY at the new one.
+                self.send(missing[0], P.WRITE, bytes([4, BAUD_RATES.index(bus_baud) + 1]))
+                self._late_until(b"", 8)
+                self.pause(0.05)
+        finally:
+            if self.baud != bus_baud:
+                self.set_baud(bus_baud)
+        if got.baud != bus_baud and self.identify(new[0].uid).baud != bus_baud:
+            raise ProtocolError("ID %d did not take %d baud" % (missing[0], bus_baud))
         return new[0].uid, missing[0]
+
+    def _newcomer_at_other_bauds(self):
+        """No newcomer at this baud: the servos whose register 4 says another baud, found
+        at the first other baud that has any (the factory's first), this Bus left at
+        that baud; [] (and the Bus at its own baud) if none."""
+        start = self.baud
+        factory = [9600, 115200]  # register 4 code 0: base 115200, the others 9600
+        for baud in factory + [b for b in BAUD_RATES if b not in factory]:
+            if baud == start:
+                continue
+            try:
+                self.set_baud(baud)
+                found = [i for i in self.enumerate() if i.baud != start]
+            except Interrupted:
+                self.set_baud(start)
+                raise
+            except ServoBusError:
+                continue  # the adapter cannot do it, or clones there: not this one
+            if found:
+                return found
+        self.set_baud(start)
+        return []

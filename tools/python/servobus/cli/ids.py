@@ -97,9 +97,6 @@ def cmd_adopt(bus, args):
     uid, new = bus.adopt(expect, known=load_known(bus.port))
     print("UID %s adopted as ID %d at %d baud" % (uid_text(uid), new, bus.baud))
     save_known(bus.port, bus.enumerate())
-    if bus.is_tcp:
-        note("over tcp:// servo-sim hears every baud; on a serial port adopt finds the "
-             "new servo only at this port's baud")
     return 0
 
 
