@@ -218,3 +218,26 @@ def test_set_id_sees_a_servo_at_another_baud(tapped):
     assert [s["id"] for s in st["servos"]] == [2]  # premise
     status, answer = t.api.post("/api/setid", {"new_id": 3})
     assert status == 409 and "at 115200 baud" in answer["error"], answer  # before: done
+
+
+def test_adopt_beside_the_old_servo_on_id_1_uses_the_remembered_uids(sim_factory,
+                                                                      studio_factory):
+    """Adversary (issue 27): the studio's Adopt ignored the UIDs a list by UID remembers,
+    so a replacement at ID 1 beside the old ID 1 was always refused as ambiguous there,
+    while `servoctl adopt` took it. The studio remembers them as servoctl ids does."""
+    from raw import Api
+    old, two = "1:arm:ac0000000000000000000001", "2:foot:ac0000000000000000000002"
+    sim = sim_factory(old, two, "3:arm:ac0000000000000000000003")
+    port = sim.port
+    first = studio_factory(sim.url)
+    Api(first).wait(lambda st: len(st["servos"]) == 3 and not st["busy"], what="the scan")
+    status, answer = Api(first).post("/api/ids", {})
+    assert status == 200 and answer["shared"] == [], answer  # a bus in order: remembered
+    assert first.stop() == 0
+    sim.stop()
+    sim = sim_factory(old, two, "1:arm:bd0000000000000000000009", port=port)
+    api = Api(studio_factory(sim.url))
+    api.wait(lambda st: not st["busy"] and st["servos"], what="the scan")
+    status, answer = api.post("/api/adopt", {"expect": [1, 2, 3]})
+    assert status == 200 and answer["id"] == 3, answer
+    assert answer["uid"] == "bd0000000000000000000009", answer

@@ -1,13 +1,16 @@
 """The studio's identities (issue 27): every servo by its unique ID (UID), duplicates
 marked, *Separate* (each shared ID: the lowest UID keeps it, the others take free IDs)
 and *Adopt* (a replacement takes the one silent expected ID and the bus's baud). The
-same SDK calls as `servoctl ids --fix` and `servoctl adopt` (servobus/ids.py); every
-value checked with values.py before anything is sent."""
+same SDK calls as `servoctl ids --fix` and `servoctl adopt` (servobus/ids.py), and the
+same memory of which UID had which ID on each port (known-uids.json, written by a list
+of a bus in order, by either), so a replacement beside the old servo on one ID is told
+apart here too; every value checked with values.py before anything is sent."""
 
 import asyncio
 import collections
 
 from .. import values as V
+from ..cli.ids import load_known, save_known
 from ..ids import uid_text
 from .api import Handler, ok
 from .flows import do_scan
@@ -37,8 +40,11 @@ class IdActions(Handler):
         async def go(body):
             V.fields(body)
             self.not_busy()
-            found = await self.st.call(lambda bus: bus.enumerate(),
-                                       "ENUMERATE: every servo by UID")
+            def job(bus):
+                idents = bus.enumerate()
+                save_known(bus.port, idents)  # as servoctl ids: adopt tells old from new
+                return idents
+            found = await self.st.call(job, "ENUMERATE: every servo by UID")
             shared = sorted({i.id for i in found if sum(j.id == i.id for j in found) > 1})
             self._show(found, "%d servo%s by UID%s." % (
                 len(found), "" if len(found) == 1 else "s",
@@ -76,8 +82,10 @@ class IdActions(Handler):
             self.not_busy()
 
             def job(bus):
-                uid, new = bus.adopt(expect)
-                return uid, new, bus.enumerate()
+                uid, new = bus.adopt(expect, known=load_known(bus.port))
+                now = bus.enumerate()
+                save_known(bus.port, now)
+                return uid, new, now
             uid, new, now = await self.st.call(job, "Adopt: the new servo takes the silent "
                                                "ID of %s" % ", ".join(map(str, expect)))
             self.st.log("adopt: UID %s is now ID %d" % (uid_text(uid), new))
