@@ -111,10 +111,12 @@ static inline int bus_w16(uint8_t addr, uint16_t v)
 static inline bool bus_read_table(uint8_t *t)
 {
     uint8_t p[2] = {0, REGS_SIZE};
-    if (bus_ins(INS_READ, p, 2) < 0 || bus_ans_len != REGS_SIZE)
-        return false;
-    memcpy(t, bus_ans, REGS_SIZE);
-    return true;
+    bool ok = bus_ins(INS_READ, p, 2) >= 0 && bus_ans_len == REGS_SIZE;
+    if (ok)
+        memcpy(t, bus_ans, REGS_SIZE);
+    else
+        memset(t, 0, REGS_SIZE); /* written either way (GCC -O2 sees no uninitialised read) */
+    return ok;
 }
 
 static inline uint16_t tab16(const uint8_t *t, uint8_t addr)
