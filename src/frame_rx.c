@@ -367,10 +367,9 @@ void frame_rx_byte(struct frame_rx *rx, uint8_t b, uint32_t now_us)
     /* After the head's byte: a header ending on the last byte of a head that failed
      * starts the next; not on a good one's, the head's or one inside it (head_over() or
      * inner_chk() cleared prev, the byte before this one): that D5 5D was its payload
-     * and checksum. One starting on its checksum
-     * byte may be real (the byte the checksum stood in for was lost), so prev is this
-     * byte after. Read once, here: a flag kept across the event cost 4 instructions on
-     * every byte (qemu_cost.py). */
+     * and checksum. One starting on its checksum byte may be real (the byte the checksum
+     * stood in for was lost), so prev is this byte after. Read once, here: a flag kept
+     * across the event cost 4 instructions on every byte (qemu_cost.py). */
     uint8_t prev = rx->prev;
     rx->prev = b;
     if (prev == PROTO_HEADER0 && b == PROTO_HEADER1)
