@@ -37,9 +37,10 @@ def measure(bus, servos, what):
     if what == "dash":
         live.dash_on = True
     else:
-        live.set_picks({s["id"]: ["present_speed", "present_temperature",
-                                  "present_position" if s["variant"] in ("wrist", "finger")
-                                  else "turned_angle"] for s in servos}, bus.baud)
+        live.set_picks("bench", {s["id"]: ["present_speed", "present_temperature",
+                                           "present_position"
+                                           if s["variant"] in ("wrist", "finger")
+                                           else "turned_angle"] for s in servos}, bus.baud)
     period, start = 1.0 / SAMPLE_HZ, time.monotonic()
     nxt, cycles = start, 0
     live.poll(bus)  # the first cycle reads the slow registers too: not counted

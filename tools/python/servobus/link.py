@@ -84,6 +84,7 @@ class Link:
         self._levels = {}  # ID -> status return level (register 16) once found below 2
         self._quiet_at = 0.0  # a late answer may arrive until then: drain before sending
         self._sent_at = 0.0  # when the last request went out
+        self._on_wire_until = 0.0  # when the bytes written so far have left the wire
         self.update_stats = None  # UpdateStats of the last update()
         self.update_step = None  # the §10 step under way (what an interrupt cuts short)
         self.update_mode = False  # the last update() found the servo in update mode
@@ -110,6 +111,13 @@ class Link:
     # ---- plumbing -------------------------------------------------------------------
 
     def close(self):
+        """Close the port once what was written has left the wire, as a serial port's
+        close drains its output: a broadcast's bytes (which nothing answers) are not cut
+        off by a close right after them (servo-sim drops what a client that left had not
+        yet delivered at its servos' baud)."""
+        wait = self._on_wire_until - time.monotonic()
+        if wait > 0:
+            time.sleep(min(wait + self.slack(), 2.0))
         self._t.close()
 
     def __enter__(self):
@@ -230,6 +238,8 @@ class Link:
         self._t.write(pkt)
         self.packets_sent += 1
         self._sent_at = time.monotonic()
+        self._on_wire_until = max(self._on_wire_until, self._sent_at) + \
+            len(pkt) * P.byte_time(self.baud)
         if self.tap is not None:
             self.tap("tx", bytes(pkt), self._sent_at)
 

@@ -317,3 +317,16 @@ def test_state_file_from_before_the_image_slots_keeps_its_settings(sim_factory, 
         assert bus.read(5, "return_delay") == 3
         assert bus.read(5, "firmware_version") == 1
     assert sim.stop() == 0
+
+
+@pytest.mark.parametrize("scheme", ["tcp", "rfc2217"])
+def test_a_broadcast_right_before_close_still_reaches_every_servo(sim_factory, scheme):
+    """A broadcast is answered by nobody, so nothing held the port open until its bytes
+    were on the wire: closed at once, servo-sim dropped them (it forgets what a client
+    that left had not delivered at its servos' baud) and the write was lost, as
+    make bench's studio polling found. Bus.close() now drains as a serial port does."""
+    sim = sim_factory("1:arm", "2:foot")
+    with Bus(sim.url.replace("tcp://", scheme + "://"), baud=9600) as bus:
+        bus.write(254, {"acceleration": 77})
+    with Bus(sim.url) as bus:
+        assert [bus.read(i, "acceleration") for i in (1, 2)] == [77, 77]
