@@ -368,6 +368,28 @@ static void candidate_on_a_frames_last_byte_goes_with_it(void **state)
     assert_true(same(&got.f[1], g2, n2, FRAME_OK));
 }
 
+/* The traffic of the two tests below: p0, a good broadcast WRITE ending in D5 5D (its
+ * last parameter D5, its checksum 5D), then eleven READ2 and `last`, a WRITE made so that
+ * a candidate starting at p0's D5 5D (ID D5, LEN 5D: 95 bytes) would pass its checksum
+ * on last's byte 6, byte 94 after p0. */
+static void d5_5d_traffic(uint8_t *p0, size_t *n0, uint8_t *last, size_t *nl)
+{
+    for (uint32_t x = 0; x < 256u; x++) {
+        *n0 = mk(p0, PROTO_ID_BROADCAST, INS_WRITE, (const uint8_t[]){0x20, (uint8_t)x, 0xD5}, 3);
+        if (p0[*n0 - 1u] == 0x5D)
+            break;
+    }
+    assert_int_equal(p0[*n0 - 2u], 0xD5);
+    assert_int_equal(p0[*n0 - 1u], 0x5D);
+    uint8_t sum = 0; /* the would-be candidate's bytes, from the next packet's D5 on */
+    for (size_t i = 0; i < 11u; i++)
+        for (size_t j = 0; j < sizeof READ2; j++)
+            sum = (uint8_t)(sum + READ2[j]);
+    sum = (uint8_t)(sum + 0xD5 + 0x5D + 0x02 + 0x05 + 0x03 + 0x1E); /* the last packet's */
+    *nl = mk(last, 0x02, INS_WRITE, (const uint8_t[]){0x1E, sum, 0x00}, 3);
+    assert_int_equal(last[6], sum);
+}
+
 /* Found by fuzz_frame (invariant 4): a good frame whose last parameter is D5 and whose
  * checksum is 5D. That pair is its payload, not a header: taken as one, it made a
  * candidate of the next packet's own D5 5D (ID D5, LEN 5D: 95 bytes), and when that
@@ -377,21 +399,8 @@ static void header_ending_on_a_good_frames_checksum_is_payload(void **state)
 {
     (void)state;
     uint8_t p0[16], last[16];
-    size_t n0 = 0;
-    for (uint32_t x = 0; x < 256u; x++) {
-        n0 = mk(p0, PROTO_ID_BROADCAST, INS_WRITE, (const uint8_t[]){0x20, (uint8_t)x, 0xD5}, 3);
-        if (p0[n0 - 1u] == 0x5D)
-            break;
-    }
-    assert_int_equal(p0[n0 - 2u], 0xD5);
-    assert_int_equal(p0[n0 - 1u], 0x5D);
-    uint8_t sum = 0; /* the would-be candidate's bytes, from the next packet's D5 on */
-    for (size_t i = 0; i < 11u; i++)
-        for (size_t j = 0; j < sizeof READ2; j++)
-            sum = (uint8_t)(sum + READ2[j]);
-    sum = (uint8_t)(sum + 0xD5 + 0x5D + 0x02 + 0x05 + 0x03 + 0x1E); /* the last packet's */
-    size_t nl = mk(last, 0x02, INS_WRITE, (const uint8_t[]){0x1E, sum, 0x00}, 3);
-    assert_int_equal(last[6], sum); /* byte 94 after p0: that candidate's checksum */
+    size_t n0, nl;
+    d5_5d_traffic(p0, &n0, last, &nl);
     start(115200);
     feed(p0, n0);
     for (size_t i = 0; i < 11u; i++)
@@ -414,19 +423,8 @@ static void header_ending_on_an_inner_good_frames_checksum_is_payload(void **sta
 {
     (void)state;
     uint8_t p0[16], last[16], head[4] = {0xD5, 0x5D, 0x03, 0};
-    size_t n0 = 0;
-    for (uint32_t x = 0; x < 256u; x++) {
-        n0 = mk(p0, PROTO_ID_BROADCAST, INS_WRITE, (const uint8_t[]){0x20, (uint8_t)x, 0xD5}, 3);
-        if (p0[n0 - 1u] == 0x5D)
-            break;
-    }
-    assert_int_equal(p0[n0 - 1u], 0x5D);
-    uint8_t sum = 0;
-    for (size_t i = 0; i < 11u; i++)
-        for (size_t j = 0; j < sizeof READ2; j++)
-            sum = (uint8_t)(sum + READ2[j]);
-    sum = (uint8_t)(sum + 0xD5 + 0x5D + 0x02 + 0x05 + 0x03 + 0x1E);
-    size_t nl = mk(last, 0x02, INS_WRITE, (const uint8_t[]){0x1E, sum, 0x00}, 3);
+    size_t n0, nl;
+    d5_5d_traffic(p0, &n0, last, &nl);
     /* A damaged head (ID 3) over p0 and two READs, ending on the third READ's ID byte,
      * whose checksum fails: its LEN counts INS..CHK, p0 and 2 READs and 3 bytes. */
     head[3] = (uint8_t)(n0 + 2u * sizeof READ2 + 3u - 1u);

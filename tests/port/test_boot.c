@@ -151,6 +151,17 @@ static void three_unconfirmed_starts_keep_it_in_update_mode(void **state)
     no_violation();
 }
 
+/* The host sends the §10 handshake to ID 1 at 9600 baud, 30 ms from now (after reset);
+ * the end of its last stop bit. */
+static uint64_t send_handshake_after_30_ms(void)
+{
+    uint8_t hs[8];
+    uint16_t n = enter_frame(hs, 1);
+    model.usart.wire_free = model.now + MODEL_MS(30);
+    model_wire_send(hs, n, 9600);
+    return model.usart.wire_free;
+}
+
 /* ---- Update mode ------------------------------------------------------------------- */
 
 static void without_an_application_it_answers_the_update_handshake(void **state)
@@ -159,11 +170,7 @@ static void without_an_application_it_answers_the_update_handshake(void **state)
     model_init();
     model.usart.de_pin = BOARD_PIN_RS485_DE;
     /* The host sends the handshake 30 ms after reset, at the stored baud. */
-    uint8_t hs[8];
-    uint16_t n = enter_frame(hs, 1);
-    model.usart.wire_free = model.now + MODEL_MS(30);
-    model_wire_send(hs, n, 9600);
-    uint64_t sent = model.usart.wire_free;
+    uint64_t sent = send_handshake_after_30_ms();
     assert_int_equal(run_bootloader(MODEL_MS(80)), MODEL_EXIT_DEADLINE);
     assert_int_equal(model.rcc.cfgr & 0xCu, 0x8u); /* on the PLL: 72 MHz */
     assert_true(model.iwdg.on && model.iwdg.feeds > 100u);
@@ -203,11 +210,7 @@ static void with_return_delay_0_update_mode_never_answers_over_the_stop_bit(void
     (void)regs_take_ee_changed(&r);
     store_sync(&st, &r, 0);
     model_reset(MODEL_RESET_POWER);
-    uint8_t hs[8];
-    uint16_t n = enter_frame(hs, 1);
-    model.usart.wire_free = model.now + MODEL_MS(30);
-    model_wire_send(hs, n, 9600);
-    uint64_t sent = model.usart.wire_free;
+    uint64_t sent = send_handshake_after_30_ms();
     assert_int_equal(run_bootloader(MODEL_MS(80)), MODEL_EXIT_DEADLINE);
     assert_int_equal(model.usart.tx_len, 7);
     assert_int_equal(model.usart.tx[4].byte, 0x00); /* ERR 0 */

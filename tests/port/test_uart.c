@@ -29,6 +29,14 @@ static uint16_t frame(uint8_t *out, uint8_t ins, const uint8_t *p, uint8_t n)
     return port_frame(out, 1, ins, p, n);
 }
 
+/* The host WRITEs one byte register of ID 1 at baud bps; the end of its last stop bit. */
+static uint64_t host_write1(uint8_t addr, uint8_t value, uint32_t bps)
+{
+    uint8_t f[16];
+    const uint8_t p[] = {addr, value};
+    return port_host_send(f, frame(f, INS_WRITE, p, 2), bps);
+}
+
 /* ---- Receive and send ------------------------------------------------------------- */
 
 /* A PING answered: after the return delay counted from the end of the request's last
@@ -67,8 +75,7 @@ static void with_return_delay_0_the_answer_never_overlaps_the_request(void **sta
     app_up(true, true);
     assert_true(loop_for(MODEL_MS(20)));
     uint8_t f[16];
-    const uint8_t delay0[] = {REG_RETURN_DELAY, 0};
-    port_host_send(f, frame(f, INS_WRITE, delay0, 2), 9600);
+    host_write1(REG_RETURN_DELAY, 0, 9600);
     assert_true(loop_for(MODEL_MS(40)));
     uint32_t from = model.usart.tx_len;
     uint64_t end = port_host_send(f, frame(f, INS_PING, 0, 0), 9600);
@@ -88,8 +95,7 @@ static void the_top_rate_and_a_baud_change(void **state)
     app_up(true, true);
     assert_true(loop_for(MODEL_MS(20)));
     uint8_t f[16];
-    const uint8_t baud10[] = {REG_BAUD_RATE, 10};
-    port_host_send(f, frame(f, INS_WRITE, baud10, 2), 9600);
+    host_write1(REG_BAUD_RATE, 10, 9600);
     assert_true(loop_for(MODEL_MS(40)));
     static const uint8_t ok[] = {0xD5, 0x5D, 0x01, 0x02, 0x00, 0x03};
     port_assert_answer(0, ok, sizeof ok);
@@ -204,14 +210,12 @@ static void on_the_8_mhz_fall_back_the_top_codes_are_refused(void **state)
     assert_int_equal(h->clock_source, CLOCK_HSI);
     assert_true(loop_for(MODEL_MS(100)));
     uint8_t f[16];
-    const uint8_t baud7[] = {REG_BAUD_RATE, 7};
-    port_host_send(f, frame(f, INS_WRITE, baud7, 2), 9600);
+    host_write1(REG_BAUD_RATE, 7, 9600);
     assert_true(loop_for(MODEL_MS(40)));
     static const uint8_t refused[] = {0xD5, 0x5D, 0x01, 0x02, 0x20, 0x23};
     port_assert_answer(0, refused, sizeof refused);
     assert_int_equal(model_usart_bps(), 9603u);
-    const uint8_t baud5[] = {REG_BAUD_RATE, 5};
-    port_host_send(f, frame(f, INS_WRITE, baud5, 2), 9600);
+    host_write1(REG_BAUD_RATE, 5, 9600);
     assert_true(loop_for(MODEL_MS(40)));
     uint32_t from = model.usart.tx_len;
     port_host_send(f, frame(f, INS_PING, 0, 0), 256000);
@@ -228,8 +232,7 @@ static void on_the_64_mhz_fall_back_every_code_works(void **state)
     assert_int_equal(h->clock_source, CLOCK_HSI_PLL);
     assert_true(loop_for(MODEL_MS(30)));
     uint8_t f[16];
-    const uint8_t baud10[] = {REG_BAUD_RATE, 10};
-    port_host_send(f, frame(f, INS_WRITE, baud10, 2), 9600);
+    host_write1(REG_BAUD_RATE, 10, 9600);
     assert_true(loop_for(MODEL_MS(40)));
     assert_int_equal(model_usart_bps(), 64000000u / 36u);
     uint32_t from = model.usart.tx_len;
@@ -248,8 +251,7 @@ static void a_stored_top_code_on_the_8_mhz_fall_back_is_found_at_500_kbd(void **
     app_up(true, true);
     assert_true(loop_for(MODEL_MS(20)));
     uint8_t f[16];
-    const uint8_t baud10[] = {REG_BAUD_RATE, 10};
-    port_host_send(f, frame(f, INS_WRITE, baud10, 2), 9600);
+    host_write1(REG_BAUD_RATE, 10, 9600);
     assert_true(loop_for(MODEL_MS(2000))); /* answered, switched, stored */
     assert_int_equal(model_usart_bps(), 1800000u);
     model.rcc.crystal = false;
